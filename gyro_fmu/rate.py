@@ -1,0 +1,87 @@
+"""Angular-rate profiles Omega_z(t) that drive the plant's Coriolis coupling."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+
+
+class RateKind(IntEnum):
+    """Shape of the rate profile (the Integer `kind` of RateProfile.fmu)."""
+
+    constant = 1
+    step = 2
+    ramp = 3
+    sine = 4
+
+
+@dataclass(frozen=True)
+class RateProfile:
+    """Omega_z(t) in rad/s.
+
+    - constant: offset
+    - step:     offset, plus amplitude from t_start on
+    - ramp:     offset, plus slope * (t - t_start) from t_start on
+    - sine:     offset + amplitude sin(2 pi frequency (t - t_start)) from t_start on;
+                the patent's Table 1 case is amplitude 1, frequency 100 Hz.
+    """
+
+    kind: RateKind = RateKind.constant
+    offset: float = 1.0  #: rad/s
+    amplitude: float = 0.0  #: rad/s
+    frequency: float = 0.0  #: Hz
+    slope: float = 0.0  #: rad/s^2
+    t_start: float = 0.0  #: s
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "kind", RateKind(self.kind))
+
+    def Omega_z(self, t: float) -> float:
+        if self.kind is RateKind.constant or t < self.t_start:
+            return self.offset
+        tau = t - self.t_start
+        if self.kind is RateKind.step:
+            return self.offset + self.amplitude
+        if self.kind is RateKind.ramp:
+            return self.offset + self.slope * tau
+        return self.offset + self.amplitude * math.sin(2.0 * math.pi * self.frequency * tau)
+
+    @classmethod
+    def parse(cls, text: str) -> RateProfile:
+        """Build from 'constant:1', 'sine:1:100', 'step:0.5:0.01', 'ramp:100:0' texts.
+
+        Forms: constant:OFFSET | step:AMPLITUDE:T_START[:OFFSET] |
+        ramp:SLOPE:T_START[:OFFSET] | sine:AMPLITUDE:FREQUENCY[:OFFSET].
+        """
+        kind, *rest = text.split(":")
+        try:
+            values = [float(v) for v in rest]
+        except ValueError:
+            raise ValueError(f"rate profile {text!r}: values must be numbers") from None
+        try:
+            k = RateKind[kind]
+        except KeyError:
+            raise ValueError(
+                f"rate profile {text!r}: kind must be one of {[r.name for r in RateKind]}"
+            ) from None
+        need = {RateKind.constant: (1, 1), RateKind.step: (2, 3), RateKind.ramp: (2, 3),
+                RateKind.sine: (2, 3)}[k]
+        if not need[0] <= len(values) <= need[1]:
+            raise ValueError(f"rate profile {text!r}: see RateProfile.parse for the forms")
+        if k is RateKind.constant:
+            return cls(k, offset=values[0])
+        offset = values[2] if len(values) == 3 else 0.0
+        if k is RateKind.step:
+            return cls(k, offset=offset, amplitude=values[0], t_start=values[1])
+        if k is RateKind.ramp:
+            return cls(k, offset=offset, slope=values[0], t_start=values[1])
+        return cls(k, offset=offset, amplitude=values[0], frequency=values[1])
+
+    def describe(self) -> str:
+        return {
+            RateKind.constant: f"constant:{self.offset:g}",
+            RateKind.step: f"step:{self.amplitude:g}:{self.t_start:g}:{self.offset:g}",
+            RateKind.ramp: f"ramp:{self.slope:g}:{self.t_start:g}:{self.offset:g}",
+            RateKind.sine: f"sine:{self.amplitude:g}:{self.frequency:g}:{self.offset:g}",
+        }[self.kind]
