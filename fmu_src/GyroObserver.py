@@ -1,0 +1,70 @@
+"""GyroObserver.fmu: the augmented state observer of US 2011/0314910 A1 (eqs. 5-9)."""
+
+from gyro_fmu.fmi import GyroSlave, Var, dataclass_from_parameters, dataclass_parameters
+from gyro_fmu.observer import ObserverTuning
+from gyro_fmu.parameters import DEFAULT_PRESET, PARAMETER_UNITS, PRESETS
+from gyro_fmu.scenario import default_initial_guess
+
+_GUESS = default_initial_guess(PRESETS[DEFAULT_PRESET])
+_UNITS = {**PARAMETER_UNITS, "Omega_z": "rad/s"}
+_ESTIMATED = ("Omega_z", "kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m")
+_HAT = {"Omega_z": "Omega_hat"}  # the patent's Omega_z' is published as Omega_hat
+
+
+class GyroObserver(GyroSlave):
+    """State observer of the single-axis-control-input gyroscope (US 2011/0314910 A1,
+    eqs. 5-9): from the drive ux, uy and two measured signals (measured_pair 1: x, y;
+    2: vx, vy) it estimates the states and the 8 unknowns kxx, kyy, kxy, dxx, dyy, dxy,
+    m and Omega_z with 1-sigma uncertainties. Inputs are held over each communication
+    step exactly as GyroPlant holds them; outputs at t+h are predictions from data up
+    to t."""
+
+    description = " ".join((__doc__ or "").split())
+    VARIABLES = (
+        *(Var(f"{n}_0", "parameter", _GUESS[n], PARAMETER_UNITS[n], f"initial guess of {n}")
+          for n in PARAMETER_UNITS),
+        Var("Omega_z_0", "parameter", 0.0, "rad/s", "initial guess of Omega_z"),
+        Var("measured_pair", "parameter", 1, None,
+            "measured signals used: 1 positions x, y; 2 velocities vx, vy",
+            integer=True, min=1, max=2),
+        *dataclass_parameters(ObserverTuning),
+        Var("ux", "input", 0.0, "N", "x-axis drive force, held over the step"),
+        Var("uy", "input", 0.0, "N", "y-axis drive force, held over the step"),
+        Var("x_meas", "input", 0.0, "m", "measured x-axis position"),
+        Var("vx_meas", "input", 0.0, "m/s", "measured x-axis velocity"),
+        Var("y_meas", "input", 0.0, "m", "measured y-axis position"),
+        Var("vy_meas", "input", 0.0, "m/s", "measured y-axis velocity"),
+        Var("x_hat", "output", 0.0, "m", "estimated x-axis position"),
+        Var("vx_hat", "output", 0.0, "m/s", "estimated x-axis velocity"),
+        Var("y_hat", "output", 0.0, "m", "estimated y-axis position"),
+        Var("vy_hat", "output", 0.0, "m/s", "estimated y-axis velocity"),
+        *(Var(_HAT.get(n, f"{n}_hat"), "output", 0.0, _UNITS[n], f"estimate of {n}")
+          for n in _ESTIMATED),
+        *(Var(f"sigma_{n}", "output", 0.0, _UNITS[n], f"1-sigma uncertainty of {n}", min=0.0)
+          for n in _ESTIMATED),
+    )
+
+    def setup(self) -> None:
+        from gyro_fmu.observer import GyroStateObserver
+        from gyro_fmu.parameters import GyroParameters
+
+        initial = GyroParameters(**{n: getattr(self, f"{n}_0") for n in PARAMETER_UNITS})
+        tuning = dataclass_from_parameters(ObserverTuning, self)
+        self.observer = GyroStateObserver(initial, self.Omega_z_0, int(self.measured_pair), tuning)
+        self._publish()
+
+    def advance(self, t: float, h: float) -> None:
+        if self.measured_pair == 1:
+            z1, z2 = self.x_meas, self.y_meas
+        else:
+            z1, z2 = self.vx_meas, self.vy_meas
+        self.observer.step(self.ux, self.uy, z1, z2, h)
+        self._publish()
+
+    def _publish(self) -> None:
+        obs = self.observer
+        self.x_hat, self.vx_hat, self.y_hat, self.vy_hat = (float(v) for v in obs.state_estimate())
+        for n, value in obs.estimates().items():
+            setattr(self, _HAT.get(n, f"{n}_hat"), float(value))
+        for n, value in obs.sigmas().items():
+            setattr(self, f"sigma_{n}", float(value))

@@ -1,0 +1,55 @@
+"""GyroPlant.fmu: the 2-DOF MEMS gyroscope of US 2011/0314910 A1 (eqs. 3-5)."""
+
+from gyro_fmu.fmi import GyroSlave, Var
+from gyro_fmu.parameters import DEFAULT_PRESET, PARAMETER_UNITS, PRESETS
+
+_P = PRESETS[DEFAULT_PRESET]
+_DESCRIPTIONS = {
+    "kxx": "x-axis stiffness / m", "kyy": "y-axis stiffness / m",
+    "kxy": "cross-axis stiffness / m", "dxx": "x-axis damping / m",
+    "dyy": "y-axis damping / m", "dxy": "cross-axis damping / m", "m": "proof mass",
+}
+
+
+class GyroPlant(GyroSlave):
+    """MEMS vibratory gyroscope (US 2011/0314910 A1, eqs. 3-5, consistent form).
+    Inputs ux, uy, Omega_z are held over each communication step and the step is
+    integrated exactly (matrix exponential); outputs x, vx, y, vy are the measured
+    signals (seeded white noise when noise_* > 0)."""
+
+    description = " ".join((__doc__ or "").split())
+    VARIABLES = (
+        *(Var(n, "parameter", getattr(_P, n), PARAMETER_UNITS[n], d)
+          for n, d in _DESCRIPTIONS.items()),
+        Var("noise_x", "parameter", 0.0, "m", "std of white noise on measured x", min=0.0),
+        Var("noise_vx", "parameter", 0.0, "m/s", "std of white noise on measured vx", min=0.0),
+        Var("noise_y", "parameter", 0.0, "m", "std of white noise on measured y", min=0.0),
+        Var("noise_vy", "parameter", 0.0, "m/s", "std of white noise on measured vy", min=0.0),
+        Var("seed", "parameter", 0, None, "seed of the noise generator", integer=True, min=0),
+        Var("ux", "input", 0.0, "N", "x-axis drive force, held over the step"),
+        Var("uy", "input", 0.0, "N", "y-axis drive force, held over the step"),
+        Var("Omega_z", "input", 0.0, "rad/s", "angular rate about z, held over the step"),
+        Var("x", "output", 0.0, "m", "measured x-axis position"),
+        Var("vx", "output", 0.0, "m/s", "measured x-axis velocity"),
+        Var("y", "output", 0.0, "m", "measured y-axis position"),
+        Var("vy", "output", 0.0, "m/s", "measured y-axis velocity"),
+        Var("ax", "output", 0.0, "m/s2", "x-axis acceleration (inputs of the last step)"),
+        Var("ay", "output", 0.0, "m/s2", "y-axis acceleration (inputs of the last step)"),
+    )
+
+    def setup(self) -> None:
+        from gyro_fmu.parameters import GyroParameters
+        from gyro_fmu.plant import GyroPlantModel, MeasurementNoise
+
+        params = GyroParameters(**{n: getattr(self, n) for n in _DESCRIPTIONS})
+        noise = MeasurementNoise(self.noise_x, self.noise_vx, self.noise_y, self.noise_vy)
+        self.model = GyroPlantModel(params, noise, seed=int(self.seed))
+        self._publish()
+
+    def advance(self, t: float, h: float) -> None:
+        self.model.step(self.ux, self.uy, self.Omega_z, h)
+        self._publish()
+
+    def _publish(self) -> None:
+        self.x, self.vx, self.y, self.vy = (float(v) for v in self.model.measured())
+        self.ax, self.ay = self.model.accelerations()

@@ -1,0 +1,33 @@
+"""TwoToneDrive.fmu: the single-axis two-tone drive force of patent eq. 10."""
+
+from gyro_fmu.drive import TwoToneDrive as _Defaults
+from gyro_fmu.fmi import GyroSlave, Var
+
+_D = _Defaults()
+
+
+class TwoToneDrive(GyroSlave):
+    """ux = A1 sin(2 pi f1 t) + A2 sin(2 pi f2 t) (US 2011/0314910 A1, eq. 10);
+    uy = 0 for a single-axis-control-input gyroscope."""
+
+    description = " ".join((__doc__ or "").split())
+    VARIABLES = (
+        Var("A1", "parameter", _D.A1, "N", "amplitude of tone 1"),
+        Var("f1", "parameter", _D.f1, "Hz", "frequency of tone 1", min=0.0),
+        Var("A2", "parameter", _D.A2, "N", "amplitude of tone 2"),
+        Var("f2", "parameter", _D.f2, "Hz", "frequency of tone 2", min=0.0),
+        Var("ux", "output", 0.0, "N", "x-axis drive force"),
+        Var("uy", "output", 0.0, "N", "y-axis drive force (0: single-axis control input)"),
+    )
+
+    def setup(self) -> None:
+        from gyro_fmu.drive import TwoToneDrive as Drive
+
+        self.drive = Drive(self.A1, self.f1, self.A2, self.f2)
+        problems = self.drive.problems()
+        if problems:
+            raise ValueError("; ".join(problems))
+        self.ux = self.drive.ux(self.start_time)
+
+    def advance(self, t: float, h: float) -> None:
+        self.ux = self.drive.ux(t + h)

@@ -1,0 +1,312 @@
+"""A fixed-step co-simulation master on fmpy: any FMI 2.0 CS FMUs, any connections.
+
+Each communication step is a Jacobi step: read every output at t, set every
+connected input, then step every FMU from t to t+h. All inputs are therefore
+the values at t, held over the step, which is what GyroPlant and GyroObserver
+assume. Per step and FMU there is one getReal (all needed outputs) and one
+setReal (all its connected inputs): the fewest calls FMI 2.0 allows.
+"""
+
+from __future__ import annotations
+
+import shutil
+from collections.abc import Iterable, Mapping, Sequence
+from ctypes import c_char_p, c_void_p
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import (  # type: ignore[attr-defined]
+    FMU2Slave,
+    calloc,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+    free,
+)
+
+
+class CoSimulationError(RuntimeError):
+    """A co-simulation could not be set up or an FMU refused a step."""
+
+
+@dataclass(frozen=True)
+class Component:
+    """One FMU instance: a name used in connections, its file, and parameter values."""
+
+    name: str
+    fmu: Path
+    parameters: Mapping[str, float | int] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Connection:
+    """Output `src` ("instance.variable") feeds input `dst` ("instance.variable")."""
+
+    src: str
+    dst: str
+
+    @classmethod
+    def parse(cls, text: str) -> Connection:
+        """From 'drive.ux->plant.ux'."""
+        try:
+            src, dst = (s.strip() for s in text.split("->"))
+        except ValueError:
+            raise CoSimulationError(
+                f"connection {text!r} must read 'instance.output->instance.input'"
+            ) from None
+        return cls(src, dst)
+
+
+class _LogCollector:
+    """Keeps every FMU log message, so an error can quote what the FMU said."""
+
+    def __init__(self) -> None:
+        self.messages: list[tuple[str, int, str]] = []
+
+    def __call__(self, env: c_void_p, instance: c_char_p, status: int, category: c_char_p,
+                 message: c_char_p) -> None:
+        self.messages.append((
+            (instance or b"").decode("utf-8", "replace"),
+            int(status),
+            (message or b"").decode("utf-8", "replace"),
+        ))
+
+    def recent(self, instance: str, count: int = 5) -> str:
+        lines = [m for name, status, m in self.messages if name == instance and status > 0]
+        return "\n".join(lines[-count:]) or "(the FMU logged nothing)"
+
+
+def _callbacks(logger: _LogCollector) -> fmi2CallbackFunctions:
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+    callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    return callbacks
+
+
+@dataclass
+class _Instance:
+    component: Component
+    description: object
+    unzip_dir: str
+    slave: FMU2Slave
+    variables: dict  # name -> ScalarVariable
+    out_vrs: list[int] = field(default_factory=list)
+    in_vrs: list[int] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class CoSimulationResult:
+    """Recorded signals: `data[:, j]` is column `columns[j]` ("time" first)."""
+
+    columns: tuple[str, ...]
+    data: np.ndarray
+    units: dict[str, str]
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self.data[:, self.columns.index(name)]
+        except ValueError:
+            raise KeyError(f"no recorded signal {name!r}; recorded: {list(self.columns)}") from None
+
+    def write_csv(self, path: Path) -> None:
+        header = ",".join(self.columns)
+        np.savetxt(path, self.data, delimiter=",", header=header, comments="", fmt="%.17g")
+
+
+def _split(ref: str) -> tuple[str, str]:
+    name, _, var = ref.partition(".")
+    if not var:
+        raise CoSimulationError(f"{ref!r} must read 'instance.variable'")
+    return name, var
+
+
+def _variable(inst: _Instance, var: str, causality: Iterable[str], ref: str):
+    v = inst.variables.get(var)
+    if v is None:
+        raise CoSimulationError(
+            f"{ref!r}: {inst.component.fmu.name} has no variable {var!r}; "
+            f"it has {sorted(inst.variables)}"
+        )
+    if v.causality not in causality:
+        raise CoSimulationError(
+            f"{ref!r}: variable {var!r} is a {v.causality}, expected {'/'.join(causality)}"
+        )
+    if v.type != "Real":
+        raise CoSimulationError(f"{ref!r}: only Real connections are supported, not {v.type}")
+    return v
+
+
+def run_cosimulation(
+    components: Sequence[Component],
+    connections: Sequence[Connection],
+    stop_time: float,
+    step: float,
+    start_time: float = 0.0,
+    record: Sequence[str] | None = None,
+) -> CoSimulationResult:
+    """Run the coupled FMUs with a fixed communication step and record signals.
+
+    record: "instance.variable" names to keep; by default every output of every FMU.
+    Returns values at the n + 1 communication points start_time + k * step.
+    """
+    if not step > 0.0:
+        raise CoSimulationError(f"communication step {step!r} s must be > 0")
+    if not stop_time > start_time:
+        raise CoSimulationError(f"stop time {stop_time!r} s must be after start time {start_time}")
+    names = [c.name for c in components]
+    if len(set(names)) != len(names):
+        raise CoSimulationError(f"instance names must be unique, got {names}")
+    n_steps = round((stop_time - start_time) / step)
+    logger = _LogCollector()
+    callbacks = _callbacks(logger)
+    instances: dict[str, _Instance] = {}
+    try:
+        for comp in components:
+            instances[comp.name] = _instantiate(comp, callbacks)
+        outputs = _OutputTable(instances)
+        wiring = _wire(outputs, connections)
+        columns, getters = _recording(outputs, record)
+        for inst in instances.values():
+            _initialize(inst, start_time, stop_time, logger)
+        data = np.empty((n_steps + 1, len(columns)))
+        t = start_time
+        for k in range(n_steps + 1):
+            t = start_time + k * step
+            values = {name: inst.slave.getReal(inst.out_vrs) if inst.out_vrs else []
+                      for name, inst in instances.items()}
+            data[k, 0] = t
+            for j, (name, idx) in enumerate(getters, start=1):
+                data[k, j] = values[name][idx]
+            if k == n_steps:
+                break
+            for dst, (in_vrs, sources) in wiring.items():
+                instances[dst].slave.setReal(in_vrs, [values[s][i] for s, i in sources])
+            for name, inst in instances.items():
+                try:
+                    inst.slave.doStep(t, step)
+                except FMICallException as exc:
+                    raise CoSimulationError(
+                        f"{name} ({inst.component.fmu.name}) refused the step at t={t:.9g} s "
+                        f"({exc}); it said:\n{logger.recent(name)}"
+                    ) from None
+        return CoSimulationResult(tuple(columns), data, _units(instances))
+    finally:
+        for inst in instances.values():
+            _release(inst)
+
+
+def _instantiate(comp: Component, callbacks: fmi2CallbackFunctions) -> _Instance:
+    path = Path(comp.fmu)
+    if not path.exists():
+        raise CoSimulationError(
+            f"FMU {path} of instance {comp.name!r} not found: build it with `gyro-fmu build`"
+        )
+    md = read_model_description(str(path))
+    if md.fmiVersion != "2.0" or md.coSimulation is None:
+        raise CoSimulationError(f"{path} is not an FMI 2.0 co-simulation FMU")
+    unzip_dir = extract(str(path))
+    slave = FMU2Slave(
+        guid=md.guid,
+        unzipDirectory=unzip_dir,
+        modelIdentifier=md.coSimulation.modelIdentifier,
+        instanceName=comp.name,
+    )
+    slave.instantiate(callbacks=callbacks, loggingOn=False)
+    variables = {v.name: v for v in md.modelVariables}
+    return _Instance(comp, md, unzip_dir, slave, variables)
+
+
+class _OutputTable:
+    """Which outputs each instance must deliver per step (one getReal each)."""
+
+    def __init__(self, instances: dict[str, _Instance]) -> None:
+        self.instances = instances
+        self._index: dict[tuple[str, str], int] = {}
+
+    def instance(self, ref: str) -> tuple[str, str]:
+        name, var = _split(ref)
+        if name not in self.instances:
+            raise CoSimulationError(f"{ref!r}: no instance {name!r}; have {sorted(self.instances)}")
+        return name, var
+
+    def add(self, ref: str) -> tuple[str, int]:
+        """Register output `ref`; returns (instance, position in its getReal result)."""
+        name, var = self.instance(ref)
+        inst = self.instances[name]
+        if (name, var) not in self._index:
+            v = _variable(inst, var, ("output",), ref)
+            self._index[(name, var)] = len(inst.out_vrs)
+            inst.out_vrs.append(v.valueReference)
+        return name, self._index[(name, var)]
+
+
+def _wire(outputs: _OutputTable, connections: Sequence[Connection]) -> dict:
+    """Per destination: its input value references and (source, output index) pairs."""
+    wiring: dict[str, tuple[list[int], list[tuple[str, int]]]] = {}
+    seen: set[str] = set()
+    for conn in connections:
+        source = outputs.add(conn.src)
+        dst_name, dst_var = outputs.instance(conn.dst)
+        if conn.dst in seen:
+            raise CoSimulationError(f"input {conn.dst!r} is connected twice")
+        seen.add(conn.dst)
+        v = _variable(outputs.instances[dst_name], dst_var, ("input",), conn.dst)
+        in_vrs, sources = wiring.setdefault(dst_name, ([], []))
+        in_vrs.append(v.valueReference)
+        sources.append(source)
+    return wiring
+
+
+def _recording(outputs: _OutputTable, record: Sequence[str] | None):
+    if record is None:
+        record = [f"{n}.{v.name}" for n, inst in outputs.instances.items()
+                  for v in inst.variables.values() if v.causality == "output" and v.type == "Real"]
+    return ["time", *record], [outputs.add(ref) for ref in record]
+
+
+def _units(instances: dict[str, _Instance]) -> dict[str, str]:
+    return {f"{n}.{v.name}": v.unit or "" for n, inst in instances.items()
+            for v in inst.variables.values()}
+
+
+def _initialize(inst: _Instance, start_time: float, stop_time: float, logger: _LogCollector):
+    slave, name = inst.slave, inst.component.name
+    try:
+        slave.setupExperiment(startTime=start_time, stopTime=stop_time)
+        for pname, value in inst.component.parameters.items():
+            v = inst.variables.get(pname)
+            if v is None or v.causality != "parameter":
+                params = sorted(k for k, x in inst.variables.items() if x.causality == "parameter")
+                raise CoSimulationError(
+                    f"{name}: {inst.component.fmu.name} has no parameter {pname!r}; "
+                    f"its parameters are {params}"
+                )
+            if v.type == "Real":
+                slave.setReal([v.valueReference], [float(value)])
+            elif v.type in ("Integer", "Enumeration"):
+                slave.setInteger([v.valueReference], [int(value)])
+            elif v.type == "Boolean":
+                slave.setBoolean([v.valueReference], [bool(value)])
+            else:
+                slave.setString([v.valueReference], [str(value)])
+        slave.enterInitializationMode()
+        slave.exitInitializationMode()
+    except FMICallException as exc:
+        raise CoSimulationError(
+            f"{name}: initialization failed ({exc}); it said:\n{logger.recent(name)}"
+        ) from None
+
+
+def _release(inst: _Instance) -> None:
+    try:
+        inst.slave.terminate()
+        inst.slave.freeInstance()
+    except Exception:
+        pass
+    shutil.rmtree(inst.unzip_dir, ignore_errors=True)
+

@@ -1,0 +1,225 @@
+"""Scenarios: which gyroscope, drive, rate, noise and observer start to co-simulate.
+
+A scenario is plain data. `fmu_system` turns it into FMU components and the
+standard wiring of patent Fig. 2 (drive -> plant and observer, rate -> plant,
+plant measurements -> observer) for the fmpy master.
+
+Noise convention: `noise` is relative. Each measured signal gets white Gaussian
+noise whose standard deviation is `noise` times that signal's own peak |value|
+over the noise-free run (so the small y signal is not buried under a noise
+floor set by the much larger x; FIELD-NOTES).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from .drive import TwoToneDrive
+from .master import Component, Connection
+from .parameters import (
+    DEFAULT_PRESET,
+    PARAMETER_NAMES,
+    PRESET_DRIVE_AMPLITUDE,
+    GyroParameters,
+    ParameterError,
+    preset,
+)
+from .plant import MEASURED, GyroPlantModel, MeasurementNoise
+from .rate import RateKind, RateProfile
+
+#: Multipliers from truth to the observer's default initial guess: a part whose
+#: every parameter is a few percent to 20% away from what the observer assumes.
+INITIAL_GUESS_FACTORS: dict[str, float] = {
+    "kxx": 1.05, "kyy": 0.95, "kxy": 1.05, "dxx": 1.2, "dyy": 1.2, "dxy": 0.8, "m": 1.05,
+}
+#: Initial guess of a damping whose truth is 0 (1/s), where a factor cannot move it.
+INITIAL_GUESS_FOR_ZERO_DAMPING = 2.0
+
+
+def default_initial_guess(p: GyroParameters) -> dict[str, float]:
+    """Observer start: truth times INITIAL_GUESS_FACTORS (documented in the README)."""
+    guess = {n: getattr(p, n) * f for n, f in INITIAL_GUESS_FACTORS.items()}
+    for name in ("dxx", "dyy", "dxy"):
+        if getattr(p, name) == 0.0:
+            guess[name] = INITIAL_GUESS_FOR_ZERO_DAMPING
+    return guess
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """Everything that defines one run. SI units throughout."""
+
+    preset: str = DEFAULT_PRESET
+    overrides: Mapping[str, float] = field(default_factory=dict)
+    rate: RateProfile = field(default_factory=lambda: RateProfile(RateKind.constant, offset=1.0))
+    drive: TwoToneDrive | None = None  #: None: default tones at the preset's amplitude
+    stop_time: float = 0.1  #: s
+    step: float = 5e-6  #: communication step, s
+    noise: float = 0.0  #: relative to each measured signal's peak
+    seed: int = 0
+    measured_pair: int = 1  #: 1: positions x, y; 2: velocities vx, vy (claim 4)
+    initial: Mapping[str, float] | None = None  #: observer guesses; None: default rule
+    Omega_z_0: float = 0.0  #: observer's initial rate guess, rad/s
+    tuning: Mapping[str, float] = field(default_factory=dict)  #: ObserverTuning overrides
+
+    def __post_init__(self) -> None:
+        for name, value in (("stop_time", self.stop_time), ("step", self.step)):
+            if not (math.isfinite(value) and value > 0.0):
+                raise ParameterError(f"{name}={value!r} s must be a finite number > 0")
+        if self.step > self.stop_time:
+            raise ParameterError(
+                f"step={self.step} s is longer than stop_time={self.stop_time} s"
+            )
+        if not (math.isfinite(self.noise) and self.noise >= 0.0):
+            raise ParameterError(f"noise={self.noise!r} must be >= 0 (fraction of signal peak)")
+        if self.measured_pair not in (1, 2):
+            raise ParameterError(
+                f"measured_pair={self.measured_pair!r}: use 1 (positions) or 2 (velocities)"
+            )
+        self.params  # noqa: B018 - fail early on a bad preset or override
+
+    @property
+    def params(self) -> GyroParameters:
+        return preset(self.preset, **self.overrides)
+
+    @property
+    def the_drive(self) -> TwoToneDrive:
+        if self.drive is not None:
+            return self.drive
+        amplitude = PRESET_DRIVE_AMPLITUDE.get(self.preset, PRESET_DRIVE_AMPLITUDE[DEFAULT_PRESET])
+        return TwoToneDrive(A1=amplitude, A2=amplitude)
+
+    @property
+    def initial_guess(self) -> dict[str, float]:
+        guess = default_initial_guess(self.params)
+        if self.initial:
+            unknown = sorted(set(self.initial) - set(PARAMETER_NAMES))
+            if unknown:
+                raise ParameterError(
+                    f"unknown initial guess(es) {unknown}: names are {list(PARAMETER_NAMES)}"
+                )
+            guess.update({k: float(v) for k, v in self.initial.items()})
+        return guess
+
+    @property
+    def n_steps(self) -> int:
+        return round(self.stop_time / self.step)
+
+    def with_(self, **changes: object) -> Scenario:
+        return replace(self, **changes)
+
+    def as_dict(self) -> dict:
+        """JSON-ready settings, including the derived drive, truth and initial guess."""
+        return {
+            "preset": self.preset,
+            "overrides": dict(self.overrides),
+            "rate": {**asdict(self.rate), "kind": self.rate.kind.name,
+                     "text": self.rate.describe()},
+            "drive": asdict(self.the_drive),
+            "stop_time": self.stop_time,
+            "step": self.step,
+            "noise_relative_to_peak": self.noise,
+            "seed": self.seed,
+            "measured_pair": self.measured_pair,
+            "initial_guess": {**self.initial_guess, "Omega_z": self.Omega_z_0},
+            "tuning": dict(self.tuning),
+        }
+
+
+#: Named scenarios of the command line.
+SCENARIOS: dict[str, Scenario] = {
+    # The benchmark gyroscope at a constant 1 rad/s.
+    "default": Scenario(),
+    # The patent's own demonstration (Table 1 with the kxy correction, Fig. 3-4).
+    "patent": Scenario(
+        preset="patent-table1-corrected",
+        rate=RateProfile(RateKind.sine, offset=0.0, amplitude=1.0, frequency=100.0),
+    ),
+}
+
+
+def scenario(name: str = "default", **changes: object) -> Scenario:
+    try:
+        base = SCENARIOS[name]
+    except KeyError:
+        raise ParameterError(f"unknown scenario {name!r}: choose one of {sorted(SCENARIOS)}") \
+            from None
+    return base.with_(**changes) if changes else base
+
+
+def noise_free_run(sc: Scenario) -> np.ndarray:
+    """Plant states [x, vx, y, vy] at every communication point, noise off (library only)."""
+    plant = GyroPlantModel(sc.params)
+    drive, rate, h = sc.the_drive, sc.rate, sc.step
+    out = np.empty((sc.n_steps + 1, 4))
+    out[0] = plant.s
+    for k in range(sc.n_steps):
+        t = k * h
+        plant.step(drive.ux(t), 0.0, rate.Omega_z(t), h)
+        out[k + 1] = plant.s
+    return out
+
+
+def absolute_noise(sc: Scenario, states: np.ndarray | None = None) -> MeasurementNoise:
+    """Noise standard deviations from the relative level and each signal's peak."""
+    if sc.noise == 0.0:
+        return MeasurementNoise()
+    states = noise_free_run(sc) if states is None else states
+    peaks = np.max(np.abs(states), axis=0)
+    return MeasurementNoise(*(float(sc.noise * p) for p in peaks))
+
+
+#: The FMUs of the standard system, by instance name.
+INSTANCE_FMUS = {
+    "drive": "TwoToneDrive.fmu",
+    "rate": "RateProfile.fmu",
+    "plant": "GyroPlant.fmu",
+    "observer": "GyroObserver.fmu",
+}
+
+#: The wiring of patent Fig. 2.
+CONNECTIONS: tuple[Connection, ...] = (
+    Connection("drive.ux", "plant.ux"),
+    Connection("drive.uy", "plant.uy"),
+    Connection("rate.Omega_z", "plant.Omega_z"),
+    Connection("drive.ux", "observer.ux"),
+    Connection("drive.uy", "observer.uy"),
+    *(Connection(f"plant.{s}", f"observer.{s}_meas") for s in MEASURED),
+)
+
+
+def fmu_system(
+    sc: Scenario,
+    models_dir: Path,
+    fmus: Mapping[str, Path] | None = None,
+    noise: MeasurementNoise | None = None,
+) -> tuple[list[Component], list[Connection]]:
+    """Components (with the scenario's parameters) and connections of the standard system.
+
+    fmus: instance name -> FMU path, to put a user's FMU in place of one of ours.
+    """
+    paths = {name: Path(models_dir) / f for name, f in INSTANCE_FMUS.items()}
+    for name, path in (fmus or {}).items():
+        if name not in paths:
+            raise ParameterError(f"unknown instance {name!r}: instances are {sorted(paths)}")
+        paths[name] = Path(path)
+    p = sc.params
+    noise = absolute_noise(sc) if noise is None else noise
+    rate = sc.rate
+    parameters = {
+        "drive": asdict(sc.the_drive),
+        "rate": {"kind": int(rate.kind), "offset": rate.offset, "amplitude": rate.amplitude,
+                 "frequency": rate.frequency, "slope": rate.slope, "t_start": rate.t_start},
+        "plant": {**p.as_dict(), **{f"noise_{k}": v for k, v in asdict(noise).items()},
+                  "seed": sc.seed},
+        "observer": {**{f"{k}_0": v for k, v in sc.initial_guess.items()},
+                     "Omega_z_0": sc.Omega_z_0, "measured_pair": sc.measured_pair,
+                     **dict(sc.tuning)},
+    }
+    components = [Component(name, paths[name], parameters[name]) for name in INSTANCE_FMUS]
+    return components, list(CONNECTIONS)
