@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import traceback
+import warnings
 from dataclasses import dataclass
 from typing import Any, ClassVar
 from xml.etree.ElementTree import Element, SubElement
@@ -113,7 +114,11 @@ class GyroSlave(Fmi2Slave):
     def exit_initialization_mode(self) -> None:
         try:
             self._check_finite_parameters()
-            self.setup()
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                self.setup()
+            for w in caught:  # e.g. a growing mode: the importer's log must show it
+                self.log(f"{self.modelName}: {w.message}", Fmi2Status.warning)
         except Exception as exc:
             self._fail("initialization", exc)
 

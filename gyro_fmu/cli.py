@@ -1,0 +1,173 @@
+"""Command line `gyro-fmu`: build the FMUs, run a scenario, report on a run."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import warnings
+from pathlib import Path
+
+from .build import FMU_NAMES, MODELS_DIR, build_all
+from .master import CoSimulationError
+from .parameters import PARAMETER_NAMES, PRESETS, ParameterError, UnstablePlantWarning
+from .rate import RateProfile
+from .scenario import SCENARIOS, Scenario, scenario
+
+
+def _assignments(items: list[str] | None, what: str) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for item in items or []:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise ParameterError(f"{what} {item!r} must read NAME=VALUE, e.g. kxy=7.1e7")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise ParameterError(f"{what} {item!r}: {value!r} is not a number") from None
+    return out
+
+
+def _scenario_from(args: argparse.Namespace) -> Scenario:
+    base = scenario(args.scenario)
+    changes: dict[str, object] = {}
+    if args.preset is not None:
+        changes["preset"] = args.preset
+    if args.set:
+        changes["overrides"] = {**base.overrides, **_assignments(args.set, "--set")}
+    if args.rate is not None:
+        try:
+            changes["rate"] = RateProfile.parse(args.rate)
+        except ValueError as exc:
+            raise ParameterError(str(exc)) from None
+    if args.drive is not None:
+        from .drive import TwoToneDrive
+
+        values = _assignments(args.drive, "--drive")
+        changes["drive"] = TwoToneDrive(**{**vars(base.the_drive), **values})
+    for name in ("stop_time", "step", "noise", "seed", "measured_pair", "Omega_z_0"):
+        value = getattr(args, name)
+        if value is not None:
+            changes[name] = value
+    if args.initial:
+        changes["initial"] = _assignments(args.initial, "--initial")
+    if args.tuning:
+        changes["tuning"] = _assignments(args.tuning, "--tuning")
+    return base.with_(**changes)
+
+
+def _cmd_build(args: argparse.Namespace) -> int:
+    for path in build_all(Path(args.dest)):
+        print(f"built {path}")
+    return 0
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from .run import run_and_report
+
+    sc = _scenario_from(args)
+    fmus = {k: Path(v) for k, v in (f.split("=", 1) for f in args.fmu or [])}
+    out = Path(args.out or f"runs/{args.scenario}")
+    summary = run_and_report(sc, out, Path(args.models), fmus, figures=not args.no_figures)
+    for message in summary["warnings"]:
+        print(f"warning: {message}", file=sys.stderr)
+    _print_summary(summary)
+    print(f"wrote {out}/results.csv, summary.json" + ("" if args.no_figures else
+          ", fig3_states.png, fig4_estimates.png"))
+    return 0
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from .parameters import GyroParameters
+    from .run import load_results, make_figures
+
+    run_dir = Path(args.run_dir)
+    summary_path = run_dir / "summary.json"
+    if not summary_path.exists():
+        raise ParameterError(f"{summary_path} not found: give a folder written by `gyro-fmu run`")
+    summary = json.loads(summary_path.read_text())
+    _print_summary(summary)
+    truth = GyroParameters(**summary["true_parameters"])
+    for path in make_figures(load_results(run_dir / "results.csv"), truth, run_dir):
+        print(f"wrote {path}")
+    return 0
+
+
+def _print_summary(summary: dict) -> None:
+    sc = summary["scenario"]
+    print(f"preset {sc['preset']}, rate {sc['rate']['text']} rad/s, "
+          f"{sc['stop_time'] * 1e3:g} ms at {sc['step'] * 1e6:g} us, "
+          f"noise {sc['noise_relative_to_peak']:g} of peak, wall {summary['wall_time_s']:.2f} s")
+    print(f"{'unknown':>8} {'truth':>13} {'estimate':>13} {'sigma':>10} "
+          f"{'max err tail':>12} {'tol':>9} {'conv. at':>9}")
+    for name, u in summary["unknowns"].items():
+        conv = u["converged_within_tolerance_at_s"]
+        print(f"{name:>8} {u['truth_final']:13.6g} {u['estimate_final']:13.6g} "
+              f"{u['sigma_final']:10.3g} {u['max_abs_error_tail']:12.3g} {u['tolerance']:9.3g} "
+              f"{'never' if conv is None else f'{conv * 1e3:.2f} ms':>9}")
+    om = summary["unknowns"]["Omega_z"]
+    print(f"Omega_hat RMS error over the last 20%: {om['rms_error_tail']:.3g} rad/s; "
+          f"all within tolerance: {summary['all_within_tolerance_in_tail']}")
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="gyro-fmu",
+        description="MEMS gyroscope FMUs (US 2011/0314910 A1): build, co-simulate, report.",
+    )
+    sub = p.add_subparsers(dest="command", required=True)
+
+    b = sub.add_parser("build", help=f"build {', '.join(FMU_NAMES)} into models/")
+    b.add_argument("--dest", default=str(MODELS_DIR), help="output folder (default models/)")
+    b.set_defaults(func=_cmd_build)
+
+    r = sub.add_parser("run", help="co-simulate a scenario through the FMUs with fmpy")
+    r.add_argument("--scenario", default="default", choices=sorted(SCENARIOS),
+                   help="default: park-horowitz at 1 rad/s; patent: Table 1 corrected, "
+                        "sin(2 pi 100 t) rad/s")
+    r.add_argument("--preset", choices=sorted(PRESETS), help="parameter preset")
+    r.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help=f"override a true parameter ({', '.join(PARAMETER_NAMES)}), SI")
+    r.add_argument("--rate", help="rate profile: constant:1 | sine:AMP:FREQ[:OFFSET] | "
+                   "step:AMP:T0[:OFFSET] | ramp:SLOPE:T0[:OFFSET] (rad/s, Hz, s)")
+    r.add_argument("--drive", action="append", metavar="NAME=VALUE",
+                   help="drive setting A1, f1, A2, f2 (N, Hz)")
+    r.add_argument("--stop-time", dest="stop_time", type=float, help="s (default 0.1)")
+    r.add_argument("--step", type=float, help="communication step, s (default 5e-6)")
+    r.add_argument("--noise", type=float,
+                   help="measurement noise std as a fraction of each signal's peak")
+    r.add_argument("--seed", type=int, help="noise seed")
+    r.add_argument("--measured-pair", dest="measured_pair", type=int, choices=(1, 2),
+                   help="1: positions x, y (default); 2: velocities vx, vy")
+    r.add_argument("--initial", action="append", metavar="NAME=VALUE",
+                   help="observer initial guess of a parameter (default: truth x factors)")
+    r.add_argument("--Omega-z-0", dest="Omega_z_0", type=float,
+                   help="observer initial rate guess, rad/s")
+    r.add_argument("--tuning", action="append", metavar="NAME=VALUE",
+                   help="observer tuning parameter (see GyroObserver.fmu)")
+    r.add_argument("--fmu", action="append", metavar="INSTANCE=PATH",
+                   help="use your FMU for an instance (drive, rate, plant, observer)")
+    r.add_argument("--models", default=str(MODELS_DIR), help="folder of our FMUs")
+    r.add_argument("--out", help="output folder (default runs/SCENARIO)")
+    r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    r.set_defaults(func=_cmd_run)
+
+    rep = sub.add_parser("report", help="print the summary and redraw the figures of a run")
+    rep.add_argument("run_dir", help="folder written by `gyro-fmu run`")
+    rep.set_defaults(func=_cmd_report)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parser().parse_args(argv)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UnstablePlantWarning)  # reported via summary
+            return args.func(args)
+    except (ParameterError, CoSimulationError, FileNotFoundError) as exc:
+        print(f"gyro-fmu: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

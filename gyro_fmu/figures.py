@@ -1,0 +1,83 @@
+"""Figures in the manner of the patent's Fig. 3A-3E and Fig. 4A-4H."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from .master import CoSimulationResult
+from .parameters import PARAMETER_UNITS, GyroParameters
+
+_LABELS = {
+    "Omega_z": (r"$\Omega_z$", "rad/s"),
+    **{n: (f"${n[0]}_{{{n[1:]}}}$" if n != "m" else "$m$", PARAMETER_UNITS[n].replace(
+        "1/s2", r"1/s$^2$")) for n in PARAMETER_UNITS},
+}
+
+
+def fig3_states(result: CoSimulationResult, path: Path, window: float = 0.002) -> Path:
+    """Fig. 3A-3E: drive ux, and plant (measured) vs observer x, y, vx, vy.
+
+    Left column: the first `window` seconds, where the observer locks on;
+    right column: the last `window` seconds.
+    """
+    t = result["time"]
+    rows = [("drive.ux", None, "$u_x$", "N"), ("plant.x", "observer.x_hat", "$x$", "m"),
+            ("plant.y", "observer.y_hat", "$y$", "m"), ("plant.vx", "observer.vx_hat",
+            r"$\dot x$", "m/s"), ("plant.vy", "observer.vy_hat", r"$\dot y$", "m/s")]
+    fig, axes = plt.subplots(len(rows), 2, figsize=(11, 11), sharex="col")
+    early, late = t <= t[0] + window, t >= t[-1] - window
+    for i, (plant, obs, label, unit) in enumerate(rows):
+        for j, sel in enumerate((early, late)):
+            ax = axes[i, j]
+            ax.plot(t[sel] * 1e3, result[plant][sel], "k--", lw=1.2,
+                    label="gyroscope (measured)" if obs else "drive")
+            if obs:
+                ax.plot(t[sel] * 1e3, result[obs][sel], "r-", lw=0.8, label="observer")
+            ax.set_ylabel(f"{label} ({unit})")
+            ax.grid(alpha=0.3)
+        if i == 1:
+            axes[i, 0].legend(loc="upper right", fontsize=8)
+    for j in range(2):
+        axes[-1, j].set_xlabel("time (ms)")
+    axes[0, 0].set_title(f"first {window * 1e3:g} ms")
+    axes[0, 1].set_title(f"last {window * 1e3:g} ms")
+    fig.suptitle("Fig. 3A-3E: drive, gyroscope outputs and observer estimates")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def fig4_estimates(result: CoSimulationResult, truth: GyroParameters, path: Path) -> Path:
+    """Fig. 4A-4H: the 8 estimates (with 1-sigma band) against their truths over time."""
+    t = result["time"] * 1e3
+    fig, axes = plt.subplots(4, 2, figsize=(11, 11), sharex=True)
+    for ax, name in zip(axes.flat, ("Omega_z", "kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m"),
+                        strict=True):
+        column = "observer.Omega_hat" if name == "Omega_z" else f"observer.{name}_hat"
+        est, sig = result[column], result[f"observer.sigma_{name}"]
+        true = (result["rate.Omega_z"] if name == "Omega_z"
+                else np.full(t.shape, getattr(truth, name)))
+        ax.fill_between(t, est - sig, est + sig, color="r", alpha=0.15, lw=0, label="±1 sigma")
+        ax.plot(t, true, "k-", lw=1.5, label="truth")
+        ax.plot(t, est, "r-", lw=0.9, label="estimate")
+        label, unit = _LABELS[name]
+        ax.set_ylabel(f"{label} ({unit})")
+        lo, hi = np.min(true), np.max(true)
+        span = max(hi - lo, 0.2 * max(abs(lo), abs(hi)), 0.5 if name.startswith("d") else 0.0)
+        ax.set_ylim(lo - 0.6 * span, hi + 0.6 * span)
+        ax.grid(alpha=0.3)
+    axes[0, 0].legend(loc="upper right", fontsize=8)
+    for ax in axes[-1]:
+        ax.set_xlabel("time (ms)")
+    fig.suptitle("Fig. 4A-4H: estimated unknowns against their truths")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
