@@ -216,7 +216,7 @@ def _instantiate(comp: Component, callbacks: fmi2CallbackFunctions) -> _Instance
         modelIdentifier=md.coSimulation.modelIdentifier,
         instanceName=comp.name,
     )
-    slave.instantiate(callbacks=callbacks, loggingOn=False)
+    slave.instantiate(callbacks=callbacks, loggingOn=True)
     variables = {v.name: v for v in md.modelVariables}
     return _Instance(comp, md, unzip_dir, slave, variables)
 

@@ -201,7 +201,9 @@ def fmu_system(
 ) -> tuple[list[Component], list[Connection]]:
     """Components (with the scenario's parameters) and connections of the standard system.
 
-    fmus: instance name -> FMU path, to put a user's FMU in place of one of ours.
+    fmus: instance name -> FMU path, to put a user's FMU in place of one of ours. It
+    must have the same inputs and outputs; it keeps its own parameter defaults (ours
+    are not pushed onto it).
     """
     paths = {name: Path(models_dir) / f for name, f in INSTANCE_FMUS.items()}
     for name, path in (fmus or {}).items():
@@ -221,5 +223,7 @@ def fmu_system(
                      "Omega_z_0": sc.Omega_z_0, "measured_pair": sc.measured_pair,
                      **dict(sc.tuning)},
     }
-    components = [Component(name, paths[name], parameters[name]) for name in INSTANCE_FMUS]
+    replaced = set(fmus or {})
+    components = [Component(name, paths[name], {} if name in replaced else parameters[name])
+                  for name in INSTANCE_FMUS]
     return components, list(CONNECTIONS)

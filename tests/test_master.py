@@ -1,0 +1,68 @@
+"""The fmpy master: clear errors for bad systems, and a user's FMU in place of ours."""
+
+from __future__ import annotations
+
+import textwrap
+
+import numpy as np
+import pytest
+from pythonfmu.builder import FmuBuilder
+
+from gyro_fmu.master import CoSimulationError, Component, Connection, run_cosimulation
+from gyro_fmu.run import run_fmus
+from gyro_fmu.scenario import scenario
+
+
+def test_bad_systems_get_errors_that_name_the_problem(models_dir, tmp_path):
+    drive = Component("drive", models_dir / "TwoToneDrive.fmu")
+    plant = Component("plant", models_dir / "GyroPlant.fmu")
+    cases = [
+        ([Component("d", tmp_path / "missing.fmu")], [], "missing.fmu .* not found"),
+        ([drive, plant], [Connection("drive.uz", "plant.ux")], "has no variable 'uz'"),
+        ([drive, plant], [Connection("plant.ux", "drive.ux")], "'ux' is a input, expected output"),
+        ([drive, plant], [Connection("drive.ux", "plant.ux"), Connection("drive.uy", "plant.ux")],
+         "connected twice"),
+        ([drive, plant], [Connection("drive.ux", "nobody.ux")], "no instance 'nobody'"),
+        ([Component("plant", models_dir / "GyroPlant.fmu", {"kzz": 1.0})], [],
+         "has no parameter 'kzz'"),
+        ([drive, drive], [], "instance names must be unique"),
+    ]
+    for components, connections, message in cases:
+        with pytest.raises(CoSimulationError, match=message):
+            run_cosimulation(components, connections, 1e-4, 5e-6)
+    with pytest.raises(CoSimulationError, match="must read"):
+        Connection.parse("drive.ux plant.ux")
+
+
+def test_refused_parameters_surface_with_the_fmus_own_message(models_dir):
+    bad = Component("plant", models_dir / "GyroPlant.fmu", {"kxy": 1e9})
+    with pytest.raises(CoSimulationError, match="not positive definite") as info:
+        run_cosimulation([bad], [], 1e-4, 5e-6)
+    assert "plant (GyroPlant.fmu) refused the step at t=0" in str(info.value)
+
+
+def test_a_users_fmu_replaces_ours(models_dir, tmp_path):
+    """A user's square-wave drive FMU (different name, same interface) runs in our system."""
+    src = tmp_path / "UserSquareDrive.py"
+    src.write_text(textwrap.dedent('''
+        import math
+        from pythonfmu import Fmi2Causality, Fmi2Slave, Real
+
+        class UserSquareDrive(Fmi2Slave):
+            def __init__(self, **kwargs):
+                super().__init__(**kwargs)
+                self.ux = 0.0
+                self.uy = 0.0
+                self.register_variable(Real("ux", causality=Fmi2Causality.output))
+                self.register_variable(Real("uy", causality=Fmi2Causality.output))
+
+            def do_step(self, t, h):
+                self.ux = 1e-7 * math.copysign(1.0, math.sin(2 * math.pi * 1700 * (t + h)))
+                return True
+    '''))
+    user_fmu = FmuBuilder.build_FMU(src, dest=tmp_path)
+    sc = scenario("default", stop_time=0.001)
+    ours, theirs = run_fmus(sc, models_dir), run_fmus(sc, models_dir, {"drive": user_fmu})
+    assert set(np.unique(np.abs(theirs["drive.ux"][1:]))) == {1e-7}
+    assert not np.allclose(ours["plant.x"], theirs["plant.x"])
+    assert np.all(np.isfinite(theirs["observer.Omega_hat"]))
