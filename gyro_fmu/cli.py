@@ -93,6 +93,26 @@ def _cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_observability(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from .observability import observability_report
+
+    sc = _scenario_from(args)
+    drive = sc.the_drive
+    drives = {"two tones": drive, f"tone 1 only ({drive.f1:g} Hz)": replace(drive, A2=0.0),
+              f"tone 2 only ({drive.f2:g} Hz)": replace(drive, A1=0.0)}
+    Omega = sc.rate.Omega_z(0.0)
+    print(f"preset {sc.preset}, Omega_z {Omega:g} rad/s, measured pair {sc.measured_pair}, "
+          f"window {args.window * 1e3:g} ms at {sc.step * 1e6:g} us (eq. 7, window test)")
+    for start in ("steady", "rest"):
+        for label, d in drives.items():
+            rep = observability_report(sc.params, d, Omega, sc.measured_pair, args.window,
+                                       sc.step, start=start)
+            print(f"  {start:>6}, {label:<26} {rep.summary().split(': ', 1)[1]}")
+    return 0
+
+
 def _print_summary(summary: dict) -> None:
     sc = summary["scenario"]
     print(f"preset {sc['preset']}, rate {sc['rate']['text']} rad/s, "
@@ -110,18 +130,8 @@ def _print_summary(summary: dict) -> None:
           f"all within tolerance: {summary['all_within_tolerance_in_tail']}")
 
 
-def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog="gyro-fmu",
-        description="MEMS gyroscope FMUs (US 2011/0314910 A1): build, co-simulate, report.",
-    )
-    sub = p.add_subparsers(dest="command", required=True)
-
-    b = sub.add_parser("build", help=f"build {', '.join(FMU_NAMES)} into models/")
-    b.add_argument("--dest", default=str(MODELS_DIR), help="output folder (default models/)")
-    b.set_defaults(func=_cmd_build)
-
-    r = sub.add_parser("run", help="co-simulate a scenario through the FMUs with fmpy")
+def _scenario_options(r: argparse.ArgumentParser) -> None:
+    """Options that define a scenario (shared by run and observability)."""
     r.add_argument("--scenario", default="default", choices=sorted(SCENARIOS),
                    help="default: park-horowitz at 1 rad/s; patent: Table 1 corrected, "
                         "sin(2 pi 100 t) rad/s")
@@ -145,12 +155,35 @@ def parser() -> argparse.ArgumentParser:
                    help="observer initial rate guess, rad/s")
     r.add_argument("--tuning", action="append", metavar="NAME=VALUE",
                    help="observer tuning parameter (see GyroObserver.fmu)")
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="gyro-fmu",
+        description="MEMS gyroscope FMUs (US 2011/0314910 A1): build, co-simulate, report.",
+    )
+    sub = p.add_subparsers(dest="command", required=True)
+
+    b = sub.add_parser("build", help=f"build {', '.join(FMU_NAMES)} into models/")
+    b.add_argument("--dest", default=str(MODELS_DIR), help="output folder (default models/)")
+    b.set_defaults(func=_cmd_build)
+
+    common = argparse.ArgumentParser(add_help=False)
+    _scenario_options(common)
+    r = sub.add_parser("run", parents=[common],
+                       help="co-simulate a scenario through the FMUs with fmpy")
     r.add_argument("--fmu", action="append", metavar="INSTANCE=PATH",
                    help="use your FMU for an instance (drive, rate, plant, observer)")
     r.add_argument("--models", default=str(MODELS_DIR), help="folder of our FMUs")
     r.add_argument("--out", help="output folder (default runs/SCENARIO)")
     r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     r.set_defaults(func=_cmd_run)
+
+
+    o = sub.add_parser("observability", parents=[common],
+                       help="rank and condition of the eq. 7 test, one tone vs two")
+    o.add_argument("--window", type=float, default=0.04, help="window length, s")
+    o.set_defaults(func=_cmd_observability)
 
     rep = sub.add_parser("report", help="print the summary and redraw the figures of a run")
     rep.add_argument("run_dir", help="folder written by `gyro-fmu run`")
