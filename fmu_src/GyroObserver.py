@@ -2,7 +2,7 @@
 
 from gyro_fmu.fmi import GyroSlave, Var, dataclass_from_parameters, dataclass_parameters
 from gyro_fmu.observer import ObserverTuning
-from gyro_fmu.parameters import DEFAULT_PRESET, PARAMETER_UNITS, PRESETS
+from gyro_fmu.parameters import DEFAULT_PRESET, PARAMETER_BOUNDS, PARAMETER_UNITS, PRESETS
 from gyro_fmu.scenario import default_initial_guess
 
 _GUESS = default_initial_guess(PRESETS[DEFAULT_PRESET])
@@ -21,8 +21,8 @@ class GyroObserver(GyroSlave):
 
     description = " ".join((__doc__ or "").split())
     VARIABLES = (
-        *(Var(f"{n}_0", "parameter", _GUESS[n], PARAMETER_UNITS[n], f"initial guess of {n}")
-          for n in PARAMETER_UNITS),
+        *(Var(f"{n}_0", "parameter", _GUESS[n], PARAMETER_UNITS[n], f"initial guess of {n}",
+              **PARAMETER_BOUNDS[n]) for n in PARAMETER_UNITS),
         Var("Omega_z_0", "parameter", 0.0, "rad/s", "initial guess of Omega_z"),
         Var("measured_pair", "parameter", 1, None,
             "measured signals used: 1 positions x, y; 2 velocities vx, vy",
@@ -60,6 +60,12 @@ class GyroObserver(GyroSlave):
             z1, z2 = self.vx_meas, self.vy_meas
         self.observer.step(self.ux, self.uy, z1, z2, h)
         self._publish()
+
+    def model_state(self) -> dict:
+        return self.observer.get_state()
+
+    def restore_model_state(self, state: dict) -> None:
+        self.observer.set_state(state)
 
     def _publish(self) -> None:
         obs = self.observer

@@ -1,7 +1,7 @@
 """GyroPlant.fmu: the 2-DOF MEMS gyroscope of US 2011/0314910 A1 (eqs. 3-5)."""
 
 from gyro_fmu.fmi import GyroSlave, Var
-from gyro_fmu.parameters import DEFAULT_PRESET, PARAMETER_UNITS, PRESETS
+from gyro_fmu.parameters import DEFAULT_PRESET, PARAMETER_BOUNDS, PARAMETER_UNITS, PRESETS
 
 _P = PRESETS[DEFAULT_PRESET]
 _DESCRIPTIONS = {
@@ -19,20 +19,24 @@ class GyroPlant(GyroSlave):
 
     description = " ".join((__doc__ or "").split())
     VARIABLES = (
-        *(Var(n, "parameter", getattr(_P, n), PARAMETER_UNITS[n], d)
+        *(Var(n, "parameter", getattr(_P, n), PARAMETER_UNITS[n], d, **PARAMETER_BOUNDS[n])
           for n, d in _DESCRIPTIONS.items()),
-        Var("noise_x", "parameter", 0.0, "m", "std of white noise on measured x", min=0.0),
-        Var("noise_vx", "parameter", 0.0, "m/s", "std of white noise on measured vx", min=0.0),
-        Var("noise_y", "parameter", 0.0, "m", "std of white noise on measured y", min=0.0),
-        Var("noise_vy", "parameter", 0.0, "m/s", "std of white noise on measured vy", min=0.0),
+        Var("noise_x", "parameter", 0.0, "m", "std of white noise on measured x", min=0.0,
+            nominal=1e-12),
+        Var("noise_vx", "parameter", 0.0, "m/s", "std of white noise on measured vx", min=0.0,
+            nominal=1e-8),
+        Var("noise_y", "parameter", 0.0, "m", "std of white noise on measured y", min=0.0,
+            nominal=1e-12),
+        Var("noise_vy", "parameter", 0.0, "m/s", "std of white noise on measured vy", min=0.0,
+            nominal=1e-8),
         Var("seed", "parameter", 0, None, "seed of the noise generator", integer=True, min=0),
-        Var("ux", "input", 0.0, "N", "x-axis drive force, held over the step"),
-        Var("uy", "input", 0.0, "N", "y-axis drive force, held over the step"),
+        Var("ux", "input", 0.0, "N", "x-axis drive force, held over the step", nominal=1e-7),
+        Var("uy", "input", 0.0, "N", "y-axis drive force, held over the step", nominal=1e-7),
         Var("Omega_z", "input", 0.0, "rad/s", "angular rate about z, held over the step"),
-        Var("x", "output", 0.0, "m", "measured x-axis position"),
-        Var("vx", "output", 0.0, "m/s", "measured x-axis velocity"),
-        Var("y", "output", 0.0, "m", "measured y-axis position"),
-        Var("vy", "output", 0.0, "m/s", "measured y-axis velocity"),
+        Var("x", "output", 0.0, "m", "measured x-axis position", nominal=1e-9),
+        Var("vx", "output", 0.0, "m/s", "measured x-axis velocity", nominal=1e-5),
+        Var("y", "output", 0.0, "m", "measured y-axis position", nominal=1e-9),
+        Var("vy", "output", 0.0, "m/s", "measured y-axis velocity", nominal=1e-5),
         Var("ax", "output", 0.0, "m/s2", "x-axis acceleration (inputs of the last step)"),
         Var("ay", "output", 0.0, "m/s2", "y-axis acceleration (inputs of the last step)"),
     )
@@ -49,6 +53,12 @@ class GyroPlant(GyroSlave):
     def advance(self, t: float, h: float) -> None:
         self.model.step(self.ux, self.uy, self.Omega_z, h)
         self._publish()
+
+    def model_state(self) -> dict:
+        return self.model.get_state()
+
+    def restore_model_state(self, state: dict) -> None:
+        self.model.set_state(state)
 
     def _publish(self) -> None:
         self.x, self.vx, self.y, self.vy = (float(v) for v in self.model.measured())

@@ -16,6 +16,15 @@ REPO_DIR = PACKAGE_DIR.parent
 SOURCE_DIR = REPO_DIR / "fmu_src"
 MODELS_DIR = REPO_DIR / "models"
 
+#: Capability flags, each true in fact (tests/test_fmu_quality.py holds them).
+CAPABILITIES = {
+    "needsExecutionTool": "false",
+    "canHandleVariableCommunicationStepSize": "true",
+    "canGetAndSetFMUstate": "true",
+    "canSerializeFMUstate": "true",
+    "canBeInstantiatedOnlyOncePerProcess": "false",
+}
+
 #: The FMUs of the product, by model identifier (= slave class = source file stem).
 FMU_NAMES = ("GyroPlant", "TwoToneDrive", "RateProfile", "GyroObserver")
 
@@ -30,7 +39,7 @@ def build_fmu(name: str, dest: Path = MODELS_DIR) -> Path:
     dest.mkdir(parents=True, exist_ok=True)
     return Path(
         FmuBuilder.build_FMU(
-            script, dest=dest, project_files=[PACKAGE_DIR], needsExecutionTool="false"
+            script, dest=dest, project_files=[PACKAGE_DIR], **CAPABILITIES
         )
     )
 

@@ -1,14 +1,21 @@
-"""The one place where gyro_fmu adapts pythonfmu: variable tables, units, safe callbacks.
+"""The one place where gyro_fmu adapts pythonfmu: variable tables, units, safe callbacks, state.
 
-Every FMU slave in fmu_src/ is a subclass of `GyroSlave` that declares a table
-of `Var` and implements `setup()` and `advance()`. This base class
+Every FMU slave in fmu_src/ subclasses `GyroSlave`, declares a table of `Var`
+and implements `setup()` and `advance()` (and, when it keeps library objects,
+`model_state()` / `restore_model_state()`). This base class
 
 - registers the variables with pythonfmu and writes what pythonfmu leaves out
-  of modelDescription.xml (units with base-unit exponents, min/max/nominal),
-- builds the library objects from the parameters when initialization ends,
-- never lets a Python exception escape a callback: pythonfmu turns one into
-  fmi2Fatal, after which fmi2Terminate crashes the importer (FIELD-NOTES).
-  A failed step returns False, which pythonfmu reports as fmi2Discard.
+  of modelDescription.xml: units with base-unit exponents, min/max/nominal,
+  InitialUnknowns, output dependencies, a DefaultExperiment;
+- never lets a Python exception escape a callback. pythonfmu's binary maps any
+  exception to fmi2Fatal (after which fmi2Terminate crashes the importer,
+  FIELD-NOTES) and ignores what setters return, so the only recoverable status
+  it can deliver is fmi2Discard from fmi2DoStep. Bad values are therefore
+  refused at set time with an error-level log message (the previous value is
+  kept) and the next fmi2DoStep returns fmi2Discard without advancing;
+- saves and restores the complete state (every variable, the library objects'
+  internals, the failure flags) as JSON, so get/set and serialize/deserialize
+  of FMU state are exact.
 
 Library imports happen inside the slaves' methods, not at module top: a C host
 that imported numpy at module load aborted at process exit (FIELD-NOTES).
@@ -16,6 +23,7 @@ that imported numpy at module load aborted at process exit (FIELD-NOTES).
 
 from __future__ import annotations
 
+import json
 import math
 import traceback
 import warnings
@@ -24,11 +32,13 @@ from typing import Any, ClassVar
 from xml.etree.ElementTree import Element, SubElement
 
 from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability
+from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Initial, Fmi2Status
 from pythonfmu.variables import Integer, Real
 
 #: SI base-unit exponents of every unit the FMUs use (FMI 2.0 <BaseUnit>).
 UNITS: dict[str, dict[str, int]] = {
+    "1": {},
     "m": {"m": 1},
     "m/s": {"m": 1, "s": -1},
     "m/s2": {"m": 1, "s": -2},
@@ -40,7 +50,14 @@ UNITS: dict[str, dict[str, int]] = {
     "1/s2": {"s": -2},
     "rad/s": {"rad": 1, "s": -1},
     "rad/s2": {"rad": 1, "s": -2},
+    "rad/s3": {"rad": 1, "s": -3},
+    "rad2/s": {"rad": 2, "s": -1},
+    "rad2/s3": {"rad": 2, "s": -3},
+    "rad2/s5": {"rad": 2, "s": -5},
 }
+
+#: Log category of the full tracebacks behind error messages.
+DEBUG_CATEGORY = "logDebug"
 
 
 @dataclass(frozen=True)
@@ -50,7 +67,7 @@ class Var:
     name: str
     causality: str  #: "parameter", "input" or "output"
     start: float | int
-    unit: str | None  #: key of UNITS, or None for dimensionless
+    unit: str | None  #: key of UNITS; None only for Integers
     description: str
     integer: bool = False
     min: float | None = None
@@ -61,6 +78,18 @@ class Var:
     def is_parameter(self) -> bool:
         return self.causality == "parameter"
 
+    def range_problem(self, value: float) -> str | None:
+        """Why `value` is not acceptable for this variable, with the remedy; None if fine."""
+        if not math.isfinite(value):
+            what = "parameter" if self.is_parameter else self.causality
+            return (f"{what} {self.name}={value!r} is not finite: give a finite value "
+                    f"in {self.unit or '1'}")
+        if self.min is not None and value < self.min:
+            return f"{self.name}={value!r} is below its minimum {self.min:g}: use >= {self.min:g}"
+        if self.max is not None and value > self.max:
+            return f"{self.name}={value!r} is above its maximum {self.max:g}: use <= {self.max:g}"
+        return None
+
 
 class GyroSlave(Fmi2Slave):
     """Base of all gyro_fmu slaves: declares VARIABLES, guards every callback."""
@@ -68,11 +97,20 @@ class GyroSlave(Fmi2Slave):
     VARIABLES: ClassVar[tuple[Var, ...]] = ()
     author = "gyro_fmu"
     license = "MIT"
+    default_experiment = DefaultExperiment(start_time=0.0, stop_time=0.01, step_size=5e-6)
+    log_categories: ClassVar[dict[str, str]] = {
+        **Fmi2Slave.log_categories,
+        DEBUG_CATEGORY: "Full Python tracebacks behind error messages.",
+    }
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        self.failed: str | None = None
+        self.failed: str | None = None  #: set when initialization failed; every step refused
+        self.pending_error: str | None = None  #: refused set; the next step is discarded
+        self.initialized = False
         self.start_time = 0.0
+        self.time = 0.0
+        self._spec = {v.name: v for v in self.VARIABLES}
         for var in self.VARIABLES:
             setattr(self, var.name, var.start)
             self.register_variable(self._pythonfmu_variable(var))
@@ -87,15 +125,10 @@ class GyroSlave(Fmi2Slave):
         else:
             variability, initial = Fmi2Variability.continuous, None
         if causality == Fmi2Causality.output:
-            initial = Fmi2Initial.exact
+            initial = Fmi2Initial.calculated  # computed from the parameters at initialization
         cls = Integer if var.integer else Real
-        return cls(
-            var.name,
-            causality=causality,
-            description=var.description,
-            variability=variability,
-            initial=initial,
-        )
+        return cls(var.name, causality=causality, description=var.description,
+                   variability=variability, initial=initial)
 
     # --- hooks for subclasses ------------------------------------------------
     def setup(self) -> None:
@@ -105,85 +138,179 @@ class GyroSlave(Fmi2Slave):
         """Advance from t to t+h and update the outputs."""
         raise NotImplementedError
 
+    def model_state(self) -> Any:
+        """JSON-ready internal state of the library objects (beyond the variables)."""
+        return None
+
+    def restore_model_state(self, state: Any) -> None:
+        """Inverse of model_state, called after setup() on the restored parameters."""
+
     # --- FMI callbacks -------------------------------------------------------
     def setup_experiment(
-        self, start_time: float, stop_time: float | None, tolerance: float | None
+        self, start_time: float, stop_time: float | None = None, tolerance: float | None = None
     ) -> None:
-        self.start_time = start_time
+        self.start_time = self.time = start_time
 
     def exit_initialization_mode(self) -> None:
         try:
-            self._check_finite_parameters()
+            problems = [p for v in self.VARIABLES if v.is_parameter
+                        and (p := v.range_problem(getattr(self, v.name)))]
+            if problems:
+                raise ValueError("; ".join(problems))
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 self.setup()
             for w in caught:  # e.g. a growing mode: the importer's log must show it
                 self.log(f"{self.modelName}: {w.message}", Fmi2Status.warning)
+            self.initialized = True
         except Exception as exc:
             self._fail("initialization", exc)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
-        if self.failed is not None:
-            self.log(f"{self.modelName}: cannot step: {self.failed}", Fmi2Status.error)
-            return False
         try:
+            if self.failed is not None:
+                raise ValueError(f"cannot step: {self.failed}")
+            if self.pending_error is not None:
+                message, self.pending_error = self.pending_error, None
+                raise ValueError(f"step refused: {message}")
             if not (math.isfinite(step_size) and step_size > 0.0):
                 raise ValueError(
                     f"communication step size {step_size!r} s must be > 0 and finite"
                 )
             self.advance(current_time, step_size)
+            self.time = current_time + step_size
         except Exception as exc:
-            self.log(
-                f"{self.modelName}: step at t={current_time:.9g} s failed: {exc}",
-                Fmi2Status.discard,
-            )
-            self.log(traceback.format_exc(), Fmi2Status.ok, category="logAll")
+            self.log(f"{self.modelName}: step at t={current_time:.9g} s discarded: {exc}",
+                     Fmi2Status.discard)
+            self._log_traceback()
             return False
         return True
 
-    def _check_finite_parameters(self) -> None:
-        for var in self.VARIABLES:
-            if var.is_parameter:
-                value = getattr(self, var.name)
-                if not math.isfinite(value):
-                    raise ValueError(f"parameter {var.name}={value!r} must be finite")
+    def set_real(self, vrs: list[int], values: list[float]) -> None:
+        self._set(vrs, values, float)
 
+    def set_integer(self, vrs: list[int], values: list[int]) -> None:
+        self._set(vrs, values, int)
+
+    def _set(self, vrs: list[int], values: list, cast: type) -> None:
+        for vr, value in zip(vrs, values, strict=False):
+            try:
+                var = self.vars[vr]
+                spec = self._spec[var.name]
+                if spec.is_parameter and self.initialized:
+                    raise ValueError(
+                        f"{spec.name} is a fixed parameter and cannot change after "
+                        f"initialization (kept {getattr(self, spec.name)!r}, refused {value!r}): "
+                        "set it before fmi2ExitInitializationMode, or instantiate anew"
+                    )
+                problem = spec.range_problem(value)
+                if problem is not None:
+                    raise ValueError(problem + f" (kept {getattr(self, spec.name)!r})")
+                setattr(self, spec.name, cast(value))
+            except Exception as exc:
+                message = f"{self.modelName}: {exc}"
+                if spec_is_parameter(self, vr) and not self.initialized:
+                    self.failed = f"refused parameter value: {exc}"
+                else:
+                    self.pending_error = str(exc)
+                self.log(message, Fmi2Status.error)
+                self._log_traceback()
+
+    # --- FMU state -----------------------------------------------------------
+    def _get_fmu_state(self) -> dict[str, Any]:
+        try:
+            return {
+                "variables": {v.name: getattr(self, v.name) for v in self.VARIABLES},
+                "flags": [self.failed, self.pending_error, self.initialized],
+                "times": [self.start_time, self.time],
+                "model": self.model_state() if self.initialized else None,
+            }
+        except Exception as exc:
+            self.log(f"{self.modelName}: could not save the state: {exc}", Fmi2Status.error)
+            self._log_traceback()
+            return {"invalid": str(exc)}
+
+    def _set_fmu_state(self, state: dict[str, Any]) -> None:
+        try:
+            if "invalid" in state:
+                raise ValueError(f"that state was not saved: {state['invalid']}")
+            for name, value in state["variables"].items():
+                setattr(self, name, value)
+            self.failed, self.pending_error, initialized = state["flags"]
+            self.start_time, self.time = state["times"]
+            if initialized:
+                with warnings.catch_warnings():  # already reported at initialization
+                    warnings.simplefilter("ignore")
+                    self.setup()  # rebuild the library objects from the restored parameters
+                self.restore_model_state(state["model"])
+                for name, value in state["variables"].items():  # outputs as saved
+                    setattr(self, name, value)
+            self.initialized = initialized
+        except Exception as exc:
+            self._fail("restoring the FMU state", exc)
+
+    @staticmethod
+    def _fmu_state_to_bytes(state: dict[str, Any]) -> bytes:
+        return json.dumps(state).encode("utf-8")  # repr floats: exact round trip
+
+    @staticmethod
+    def _fmu_state_from_bytes(state: bytes) -> dict[str, Any]:
+        try:
+            return json.loads(state.decode("utf-8"))
+        except Exception as exc:  # an exception here would be fmi2Fatal
+            return {"invalid": f"serialized state unreadable: {exc}"}
+
+    # --- failure reporting ---------------------------------------------------
     def _fail(self, where: str, exc: Exception) -> None:
         self.failed = f"{where} failed: {exc}"
         self.log(f"{self.modelName}: {self.failed}", Fmi2Status.error)
-        self.log(traceback.format_exc(), Fmi2Status.ok, category="logAll")
+        self._log_traceback()
+
+    def _log_traceback(self) -> None:
+        self.log(traceback.format_exc(), Fmi2Status.ok, category=DEBUG_CATEGORY)
 
     # --- model description: what pythonfmu leaves out ------------------------
     def to_xml(self, model_options: dict[str, str] | None = None) -> Element:
         root = super().to_xml(model_options or {})
-        by_name = {v.name: v for v in self.VARIABLES}
         used_units: list[str] = []
         for node in root.iter("ScalarVariable"):
-            var = by_name[node.get("name")]
+            var = self._spec[node.get("name")]
             type_node = node[0]
-            if var.unit is not None and not var.integer:
-                type_node.set("unit", var.unit)
-                if var.unit not in used_units:
-                    used_units.append(var.unit)
+            if not var.integer:
+                unit = var.unit or "1"
+                type_node.set("unit", unit)
+                if unit not in used_units:
+                    used_units.append(unit)
             for attr in ("min", "max", "nominal"):
                 value = getattr(var, attr)
                 if value is not None:
-                    type_node.set(attr, f"{value:.16g}" if not var.integer else str(int(value)))
-        if used_units:
-            unit_defs = Element("UnitDefinitions")
-            for unit in used_units:
-                u = SubElement(unit_defs, "Unit", name=unit)
-                SubElement(u, "BaseUnit", {k: str(v) for k, v in UNITS[unit].items()})
-            position = list(root).index(root.find("CoSimulation")) + 1
-            root.insert(position, unit_defs)
+                    type_node.set(attr, str(int(value)) if var.integer else f"{value:.16g}")
+        unit_defs = Element("UnitDefinitions")
+        for unit in used_units:
+            u = SubElement(unit_defs, "Unit", name=unit)
+            SubElement(u, "BaseUnit", {k: str(v) for k, v in UNITS[unit].items()})
+        root.insert(list(root).index(root.find("CoSimulation")) + 1, unit_defs)
+        structure = root.find("ModelStructure")
+        outputs = structure.find("Outputs")
+        if outputs is not None:
+            initial = SubElement(structure, "InitialUnknowns")
+            for unknown in outputs:
+                # an output changes only in fmi2DoStep: no direct feedthrough of inputs
+                unknown.set("dependencies", "")
+                SubElement(initial, "Unknown", index=unknown.get("index"))
         return root
+
+
+def spec_is_parameter(slave: GyroSlave, vr: int) -> bool:
+    var = slave.vars.get(vr)
+    return var is not None and slave._spec[var.name].is_parameter
 
 
 def dataclass_parameters(cls: type) -> tuple[Var, ...]:
     """FMU parameters for the fields of a tuning dataclass (float, int or bool fields).
 
-    Each field may carry metadata {"unit": ..., "description": ...}; booleans become
-    Integer 0/1 parameters so every importer can set them.
+    Each field may carry metadata {"unit", "description", "min", "max"}; booleans
+    become Integer 0/1 parameters so every importer can set them.
     """
     import dataclasses
 
@@ -191,11 +318,13 @@ def dataclass_parameters(cls: type) -> tuple[Var, ...]:
     for f in dataclasses.fields(cls):
         integer = f.type in (int, bool, "int", "bool")
         boolean = f.type in (bool, "bool")
-        start = int(f.default) if integer else float(f.default)
-        out.append(Var(f.name, "parameter", start, f.metadata.get("unit"),
-                       f.metadata.get("description", f"tuning: {f.name}"), integer=integer,
-                       min=0 if boolean else None,
-                       max=1 if boolean else None))
+        meta = f.metadata
+        out.append(Var(
+            f.name, "parameter", int(f.default) if integer else float(f.default),
+            None if integer else meta.get("unit", "1"),
+            meta.get("description", f"tuning: {f.name}"), integer=integer,
+            min=0 if boolean else meta.get("min"), max=1 if boolean else meta.get("max"),
+        ))
     return tuple(out)
 
 

@@ -61,26 +61,26 @@ class Connection:
         return cls(src, dst)
 
 
-class _LogCollector:
+class LogCollector:
     """Keeps every FMU log message, so an error can quote what the FMU said."""
 
     def __init__(self) -> None:
-        self.messages: list[tuple[str, int, str]] = []
+        #: (instance, status, category, message) of every message, in order
+        self.messages: list[tuple[str, int, str, str]] = []
 
     def __call__(self, env: c_void_p, instance: c_char_p, status: int, category: c_char_p,
                  message: c_char_p) -> None:
-        self.messages.append((
-            (instance or b"").decode("utf-8", "replace"),
-            int(status),
-            (message or b"").decode("utf-8", "replace"),
-        ))
+        def text(b: bytes | None) -> str:
+            return (b or b"").decode("utf-8", "replace")
+
+        self.messages.append((text(instance), int(status), text(category), text(message)))
 
     def recent(self, instance: str, count: int = 5) -> str:
-        lines = [m for name, status, m in self.messages if name == instance and status > 0]
+        lines = [m for name, status, _, m in self.messages if name == instance and status > 0]
         return "\n".join(lines[-count:]) or "(the FMU logged nothing)"
 
 
-def _callbacks(logger: _LogCollector) -> fmi2CallbackFunctions:
+def fmi2_callbacks(logger: LogCollector) -> fmi2CallbackFunctions:
     callbacks = fmi2CallbackFunctions()
     callbacks.logger = fmi2CallbackLoggerTYPE(logger)
     callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
@@ -162,8 +162,8 @@ def run_cosimulation(
     if len(set(names)) != len(names):
         raise CoSimulationError(f"instance names must be unique, got {names}")
     n_steps = round((stop_time - start_time) / step)
-    logger = _LogCollector()
-    callbacks = _callbacks(logger)
+    logger = LogCollector()
+    callbacks = fmi2_callbacks(logger)
     instances: dict[str, _Instance] = {}
     try:
         for comp in components:
@@ -274,7 +274,7 @@ def _units(instances: dict[str, _Instance]) -> dict[str, str]:
             for v in inst.variables.values()}
 
 
-def _initialize(inst: _Instance, start_time: float, stop_time: float, logger: _LogCollector):
+def _initialize(inst: _Instance, start_time: float, stop_time: float, logger: LogCollector):
     slave, name = inst.slave, inst.component.name
     try:
         slave.setupExperiment(startTime=start_time, stopTime=stop_time)

@@ -27,6 +27,19 @@ PARAMETER_UNITS: dict[str, str] = {
     "m": "kg",
 }
 
+#: FMU min/max/nominal of each parameter: what physics allows, and its usual scale.
+#: Stiffnesses and dampings of the main axes cannot be negative; cross terms can.
+#: (m > 0 strictly is checked by check_parameters; min is inclusive in FMI.)
+PARAMETER_BOUNDS: dict[str, dict[str, float]] = {
+    "kxx": {"min": 0.0, "nominal": 1e8},
+    "kyy": {"min": 0.0, "nominal": 1e8},
+    "kxy": {"nominal": 1e7},
+    "dxx": {"min": 0.0, "nominal": 10.0},
+    "dyy": {"min": 0.0, "nominal": 10.0},
+    "dxy": {"nominal": 1.0},
+    "m": {"min": 0.0, "nominal": 1e-7},
+}
+
 DEFAULT_PRESET = "park-horowitz"
 
 

@@ -1,0 +1,69 @@
+"""A thin fmpy harness for poking one FMU instance directly (state, bad input)."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave
+
+from gyro_fmu.master import LogCollector, fmi2_callbacks
+
+
+class Instance:
+    """One instantiated FMU with name-based access and its own log."""
+
+    def __init__(self, path: Path, name: str = "inst", parameters: dict | None = None,
+                 initialize: bool = True) -> None:
+        self.md = read_model_description(str(path))
+        self.dir = extract(str(path))
+        self.vars = {v.name: v for v in self.md.modelVariables}
+        self.log = LogCollector()
+        self._callbacks = fmi2_callbacks(self.log)
+        self.slave = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir,
+                               modelIdentifier=self.md.coSimulation.modelIdentifier,
+                               instanceName=name)
+        self.name = name
+        self.slave.instantiate(callbacks=self._callbacks, loggingOn=True)
+        self.slave.setupExperiment(startTime=0.0)
+        self.set(parameters or {})
+        if initialize:
+            self.initialize()
+        self.t = 0.0
+
+    def initialize(self) -> None:
+        self.slave.enterInitializationMode()
+        self.slave.exitInitializationMode()
+
+    def set(self, values: dict) -> None:
+        for name, value in values.items():
+            v = self.vars[name]
+            if v.type == "Integer":
+                self.slave.setInteger([v.valueReference], [int(value)])
+            else:
+                self.slave.setReal([v.valueReference], [float(value)])
+
+    def get(self, names) -> list[float]:
+        return self.slave.getReal([self.vars[n].valueReference for n in names])
+
+    def step(self, h: float) -> int:
+        """Do one step; returns the FMI status (0 ok, 2 discard, ...)."""
+        try:
+            self.slave.doStep(self.t, h)
+        except FMICallException as exc:
+            return exc.status
+        self.t += h
+        return 0
+
+    def messages(self, min_status: int = 1) -> str:
+        return "\n".join(m for _, s, _, m in self.log.messages if s >= min_status)
+
+    def category(self, category: str) -> str:
+        return "\n".join(m for _, _, c, m in self.log.messages if c == category)
+
+    def close(self) -> None:
+        self.slave.terminate()
+        self.slave.freeInstance()
+        shutil.rmtree(self.dir, ignore_errors=True)

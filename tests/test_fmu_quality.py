@@ -1,0 +1,176 @@
+"""What a tool integrator relies on: valid descriptions, exact state, safe failure, instances."""
+
+from __future__ import annotations
+
+import math
+import zipfile
+
+import numpy as np
+import pytest
+from fmpy import read_model_description
+from fmpy.validation import validate_fmu
+
+from fmu_harness import Instance
+from gyro_fmu.build import FMU_NAMES
+from gyro_fmu.fmi import DEBUG_CATEGORY
+from gyro_fmu.parameters import preset
+from gyro_fmu.plant import GyroPlantModel
+
+H = 5e-6
+
+
+@pytest.mark.parametrize("name", FMU_NAMES)
+def test_model_description_is_complete_and_valid(models_dir, name):
+    path = models_dir / f"{name}.fmu"
+    assert validate_fmu(str(path)) == []
+    md = read_model_description(str(path))
+    cs = md.coSimulation
+    assert cs.canGetAndSetFMUstate and cs.canSerializeFMUstate
+    assert cs.canHandleVariableCommunicationStepSize and not cs.needsExecutionTool
+    units = {u.name for u in md.unitDefinitions}
+    for v in md.modelVariables:
+        assert v.description, v.name
+        if v.type == "Real":
+            assert v.unit in units, v.name
+    outputs = [v for v in md.modelVariables if v.causality == "output"]
+    assert len(md.outputs) == len(outputs) == len(md.initialUnknowns)
+    assert float(md.defaultExperiment.stepSize) == H
+    xml = zipfile.ZipFile(path).read("modelDescription.xml").decode()
+    assert '<BaseUnit' in xml and 'dependencies=""' in xml
+
+
+def test_physical_bounds_and_nominals_are_declared(models_dir):
+    md = read_model_description(str(models_dir / "GyroPlant.fmu"))
+    v = {x.name: x for x in md.modelVariables}
+    assert float(v["m"].min) == 0.0 and float(v["noise_x"].min) == 0.0
+    assert float(v["kxx"].nominal) == 1e8 and float(v["x"].nominal) == 1e-9
+    assert v["kxy"].min is None  # a cross stiffness may be negative
+
+
+def _run(inst: Instance, n: int, outputs: list[str], inputs=None) -> np.ndarray:
+    rows = []
+    for k in range(n):
+        if inputs is not None:
+            inst.set(inputs(inst.t))
+        assert inst.step(H) == 0
+        rows.append(inst.get(outputs))
+    return np.array(rows)
+
+
+def _drive(t):
+    return {"ux": 1e-7 * (math.sin(2 * math.pi * 2500 * t) + math.sin(2 * math.pi * 1200 * t)),
+            "Omega_z": 1.0}
+
+
+CASES = {
+    "GyroPlant": ({"noise_x": 1e-12, "noise_vy": 1e-8, "seed": 5}, ["x", "vx", "y", "vy", "ax"],
+                  _drive),
+    "GyroObserver": ({}, ["x_hat", "Omega_hat", "dxy_hat", "sigma_Omega_z", "m_hat"],
+                     lambda t: {"ux": _drive(t)["ux"], "x_meas": 1e-9 * math.sin(9e3 * t),
+                                "y_meas": 2e-10 * math.cos(7e3 * t)}),
+    "TwoToneDrive": ({}, ["ux"], None),
+    "RateProfile": ({"kind": 4, "offset": 0.0, "amplitude": 1.0, "frequency": 100.0},
+                    ["Omega_z"], None),
+}
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_state_restore_and_serialization_are_exact(models_dir, name):
+    """Run to t1, save; run to t2; restore, run to t2 again: identical outputs bit for bit.
+    The same after serialize -> deserialize into a fresh instance."""
+    params, outputs, inputs = CASES[name]
+    a = Instance(models_dir / f"{name}.fmu", "a", params)
+    _run(a, 40, outputs, inputs)
+    state = a.slave.getFMUstate()
+    t1 = a.t
+    first = _run(a, 60, outputs, inputs)
+    a.slave.setFMUstate(state)
+    a.t = t1
+    again = _run(a, 60, outputs, inputs)
+    assert np.array_equal(first, again)
+    blob = a.slave.serializeFMUstate(state)
+    a.slave.freeFMUstate(state)
+    b = Instance(models_dir / f"{name}.fmu", "b", params)  # fresh instance, same parameters
+    b.slave.setFMUstate(b.slave.deSerializeFMUstate(blob))
+    b.t = t1
+    fresh = _run(b, 60, outputs, inputs)
+    assert np.array_equal(first, fresh)
+    assert b.messages(min_status=3) == ""
+    a.close()
+    b.close()
+
+
+# The bad-input table of the README: (FMU, parameters before init, action, what it answers)
+BAD_INPUTS = [
+    ("GyroPlant", {}, ("input", "ux", float("nan")), "input ux=nan is not finite"),
+    ("GyroPlant", {}, ("input", "Omega_z", float("inf")), "input Omega_z=inf is not finite"),
+    ("GyroObserver", {}, ("input", "x_meas", float("-inf")), "input x_meas=-inf is not finite"),
+    ("GyroPlant", {}, ("step", -H, None), "must be > 0"),
+    ("GyroPlant", {}, ("step", 0.0, None), "must be > 0"),
+    ("GyroPlant", {}, ("after_init", "kxx", 1e8), "kxx is a fixed parameter"),
+    ("GyroPlant", {"m": -1.0}, ("init", None, None), "m=-1.0 is below its minimum 0"),
+    ("GyroPlant", {"noise_x": float("nan")}, ("init", None, None),
+     "parameter noise_x=nan is not finite"),
+    ("GyroPlant", {"kxy": 1e9}, ("init", None, None), "not positive definite"),
+    ("GyroObserver", {"measured_pair": 3}, ("init", None, None),
+     "measured_pair=3 is above its maximum 2"),
+    ("GyroObserver", {"kxx_0": float("inf")}, ("init", None, None), "kxx_0=inf is not finite"),
+    ("TwoToneDrive", {"f1": -5.0}, ("init", None, None), "f1=-5.0 is below its minimum 0"),
+    ("RateProfile", {"kind": 9}, ("init", None, None), "kind=9 is above its maximum 4"),
+]
+
+
+@pytest.mark.parametrize(("name", "params", "action", "message"), BAD_INPUTS,
+                         ids=[f"{r[0]}-{r[2][0]}-{r[2][1]}-{r[3][:20]}" for r in BAD_INPUTS])
+def test_bad_input_is_refused_with_a_message_and_never_crashes(models_dir, name, params, action,
+                                                              message):
+    inst = Instance(models_dir / f"{name}.fmu", "bad", params)
+    kind, what, value = action
+    before = inst.get([v for v, x in inst.vars.items() if x.causality == "output"])
+    if kind == "input":
+        inst.set({what: value})
+        assert inst.step(H) == 2  # fmi2Discard, the state kept
+    elif kind == "step":
+        inst.slave.doStep(0.0, H)  # a good step first
+        inst.t = H
+        assert inst.step(what) == 2
+    elif kind == "after_init":
+        inst.set({what: value})
+        assert inst.step(H) == 2
+    else:
+        assert inst.step(H) == 2
+    text = inst.messages()
+    assert message in text, text
+    assert "Traceback" in inst.category(DEBUG_CATEGORY)
+    if kind in ("input", "after_init"):
+        after = inst.get([v for v, x in inst.vars.items() if x.causality == "output"])
+        assert np.array_equal(np.array(before), np.array(after))  # nothing advanced
+        assert inst.step(H) == 0  # recoverable: the next step goes on
+    inst.close()  # fmi2Terminate and fmi2FreeInstance after the error
+
+
+def test_many_instances_in_one_process_are_independent(models_dir):
+    """Two plants and two observers with different parameters, interleaved step by step."""
+    p1, p2 = preset(), preset(kxy=3e7, dxy=5.0)
+    plants = [Instance(models_dir / "GyroPlant.fmu", f"plant{i}", p.as_dict())
+              for i, p in enumerate((p1, p2))]
+    observers = [Instance(models_dir / "GyroObserver.fmu", f"obs{i}",
+                          {f"{k}_0": v for k, v in p.as_dict().items()})
+                 for i, p in enumerate((p1, p2))]
+    refs = [GyroPlantModel(p) for p in (p1, p2)]
+    for _ in range(200):
+        inputs = _drive(plants[0].t)
+        for plant, obs, ref in zip(plants, observers, refs, strict=True):
+            x, vx, y, vy = plant.get(["x", "vx", "y", "vy"])
+            obs.set({"ux": inputs["ux"], "x_meas": x, "y_meas": y})
+            plant.set(inputs)
+            assert plant.step(H) == 0 and obs.step(H) == 0
+            ref.step(inputs["ux"], 0.0, inputs["Omega_z"], H)
+    for plant, ref in zip(plants, refs, strict=True):
+        assert np.array_equal(np.array(plant.get(["x", "vx", "y", "vy"])), ref.s)
+    y1, y2 = (p.get(["y"])[0] for p in plants)
+    assert abs(y1 - y2) > 0.1 * abs(y1)  # really different parameters
+    kxy = [o.get(["kxy_hat"])[0] for o in observers]
+    assert abs(kxy[0] - p1.kxy) < 0.01 * p1.kxy and abs(kxy[1] - p2.kxy) < 0.01 * p2.kxy
+    for inst in plants + observers:
+        inst.close()
