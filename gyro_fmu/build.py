@@ -29,19 +29,25 @@ CAPABILITIES = {
 FMU_NAMES = ("GyroPlant", "TwoToneDrive", "RateProfile", "GyroObserver")
 
 
-def build_fmu(name: str, dest: Path = MODELS_DIR) -> Path:
-    """Build one FMU from fmu_src/NAME.py into dest; returns the .fmu path."""
+def build_fmu(name: str, dest: Path = MODELS_DIR, reference: bool = True) -> Path:
+    """Build one FMU from fmu_src/NAME.py into dest; returns the .fmu path.
+
+    reference: also simulate its default experiment and store the result inside
+    the FMU (fmi-ls-ref), for `gyro-fmu validate` in users' CI.
+    """
     script = SOURCE_DIR / f"{name}.py"
     if not script.exists():
         raise FileNotFoundError(
             f"no FMU source {script}: the FMU names are {list(FMU_NAMES)}"
         )
     dest.mkdir(parents=True, exist_ok=True)
-    return Path(
-        FmuBuilder.build_FMU(
-            script, dest=dest, project_files=[PACKAGE_DIR], **CAPABILITIES
-        )
-    )
+    path = Path(FmuBuilder.build_FMU(script, dest=dest, project_files=[PACKAGE_DIR],
+                                     **CAPABILITIES))
+    if reference:
+        from .reference import write_reference
+
+        write_reference(path)
+    return path
 
 
 def build_all(dest: Path = MODELS_DIR, names: tuple[str, ...] = FMU_NAMES) -> list[Path]:

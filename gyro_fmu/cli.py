@@ -113,6 +113,27 @@ def _cmd_observability(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_validate(args: argparse.Namespace) -> int:
+    from .reference import ReferenceError, validate_reference
+
+    failed = 0
+    for fmu in args.fmu:
+        try:
+            checks = validate_reference(Path(fmu), dy=args.dy, dx=args.dx)
+        except (ReferenceError, FileNotFoundError) as exc:
+            print(f"{fmu}: FAIL: {exc}")
+            failed += 1
+            continue
+        print(f"{fmu}: band dy={args.dy:g} of each signal's range, dx={args.dx} samples")
+        for c in checks:
+            print(f"  {'pass' if c.passed else 'FAIL'}  {c.name:<16} {c.outliers:>6} of "
+                  f"{c.samples} samples outside, max |deviation| {c.max_abs_deviation:.3g}")
+        failed += sum(not c.passed for c in checks)
+    print("all outputs match their reference results" if not failed
+          else f"{failed} check(s) failed")
+    return 1 if failed else 0
+
+
 def _print_summary(summary: dict) -> None:
     sc = summary["scenario"]
     print(f"preset {sc['preset']}, rate {sc['rate']['text']} rad/s, "
@@ -184,6 +205,14 @@ def parser() -> argparse.ArgumentParser:
                        help="rank and condition of the eq. 7 test, one tone vs two")
     o.add_argument("--window", type=float, default=0.04, help="window length, s")
     o.set_defaults(func=_cmd_observability)
+
+    v = sub.add_parser("validate", help="re-simulate FMUs and compare with the reference "
+                       "results they carry (fmi-ls-ref); exit 1 on any difference")
+    v.add_argument("fmu", nargs="+", help="FMU file(s)")
+    v.add_argument("--dy", type=float, default=1e-6,
+                   help="band half-width as a fraction of each signal's range (default 1e-6)")
+    v.add_argument("--dx", type=int, default=1, help="band width in samples (default 1)")
+    v.set_defaults(func=_cmd_validate)
 
     rep = sub.add_parser("report", help="print the summary and redraw the figures of a run")
     rep.add_argument("run_dir", help="folder written by `gyro-fmu run`")
