@@ -44,9 +44,11 @@ def run_inprocess(sc: Scenario, noise: MeasurementNoise | None = None) -> CoSimu
     )
     pair = (0, 2) if sc.measured_pair == 1 else (1, 3)
     data = np.empty((sc.n_steps + 1, len(COLUMNS)))
+    t_eval = 0.0  # the FMUs evaluate sources at t_prev + h, not k * h (they differ by ulps)
     for k in range(sc.n_steps + 1):
         t = k * h
-        ux, Om = drive.ux(t), rate.Omega_z(t)
+        ux, Om = drive.ux(t_eval), rate.Omega_z(t_eval)
+        t_eval = t + h
         z = plant.measured()
         row = data[k]
         row[0:4] = t, ux, 0.0, Om
