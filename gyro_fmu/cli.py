@@ -134,6 +134,12 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     return 1 if failed else 0
 
 
+def _cmd_doctor(args: argparse.Namespace) -> int:
+    from .doctor import main as doctor_main
+
+    return doctor_main(Path(args.fmu) if args.fmu else None, compile_host=not args.no_compile)
+
+
 def _print_summary(summary: dict) -> None:
     sc = summary["scenario"]
     print(f"preset {sc['preset']}, rate {sc['rate']['text']} rad/s, "
@@ -213,6 +219,13 @@ def parser() -> argparse.ArgumentParser:
                    help="band half-width as a fraction of each signal's range (default 1e-6)")
     v.add_argument("--dx", type=int, default=1, help="band width in samples (default 1)")
     v.set_defaults(func=_cmd_validate)
+
+    d = sub.add_parser("doctor", help="what OMSimulator/Simulink/Dymola/C hosts need to load "
+                       "the FMUs, checked with a compiled C host")
+    d.add_argument("--fmu", help="FMU to load in the check (default models/GyroPlant.fmu)")
+    d.add_argument("--no-compile", action="store_true",
+                   help="print the settings only, skip the C-host check")
+    d.set_defaults(func=_cmd_doctor)
 
     rep = sub.add_parser("report", help="print the summary and redraw the figures of a run")
     rep.add_argument("run_dir", help="folder written by `gyro-fmu run`")

@@ -17,8 +17,10 @@ and implements `setup()` and `advance()` (and, when it keeps library objects,
   internals, the failure flags) as JSON, so get/set and serialize/deserialize
   of FMU state are exact.
 
-Library imports happen inside the slaves' methods, not at module top: a C host
-that imported numpy at module load aborted at process exit (FIELD-NOTES).
+Inside an FMU, the base class also installs `pythonfmu_exit`: pythonfmu 0.7.0
+frees its interpreter guard twice at process exit, which aborts non-Python hosts
+(measured with `gyro-fmu doctor`; FIELD-NOTES blamed the numpy import, but the
+abort is the double free and follows numpy or scipy being loaded at all).
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ import math
 import traceback
 import warnings
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, ClassVar
 from xml.etree.ElementTree import Element, SubElement
 
@@ -114,6 +117,11 @@ class GyroSlave(Fmi2Slave):
         for var in self.VARIABLES:
             setattr(self, var.name, var.start)
             self.register_variable(self._pythonfmu_variable(var))
+        if self.resources:  # inside an FMU: defuse pythonfmu 0.7.0's exit-time double free
+            from . import pythonfmu_exit
+
+            binary = Path(self.resources).parent / "binaries" / "linux64" / f"{self.modelName}.so"
+            pythonfmu_exit.install(binary)
 
     @staticmethod
     def _pythonfmu_variable(var: Var) -> Real | Integer:

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from pythonfmu.builder import FmuBuilder
 
-from gyro_fmu.master import CoSimulationError, Component, Connection, run_cosimulation
+from gyro_fmu.master import Component, Connection, CoSimulationError, run_cosimulation
 from gyro_fmu.run import run_fmus
 from gyro_fmu.scenario import scenario
 

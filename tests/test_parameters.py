@@ -49,11 +49,11 @@ def test_overrides_apply_and_bad_names_or_values_are_named():
     assert preset(kxy=1e7).kxy == 1e7
     with pytest.raises(ParameterError, match=r"unknown parameter\(s\) \['kzz'\]"):
         preset(kzz=1.0)
-    with pytest.raises(ParameterError, match="kxx='abc' is not a number"):
+    with pytest.raises(ParameterError, match=r"kxx='abc' is not a number"):
         preset(kxx="abc")
     with pytest.raises(ParameterError, match="must be finite"):
         preset(dxx=float("nan"))
-    with pytest.raises(ParameterError, match="unknown preset 'nope'.*park-horowitz"):
+    with pytest.raises(ParameterError, match=r"unknown preset 'nope'.*park-horowitz"):
         preset("nope")
-    with pytest.raises(ParameterError, match="mass m=-1.0 kg must be > 0"):
+    with pytest.raises(ParameterError, match=r"mass m=-1\.0 kg must be > 0"):
         validate_for_plant(preset(m=-1.0))

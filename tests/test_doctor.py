@@ -1,0 +1,91 @@
+"""`gyro-fmu doctor`: its C host loads GyroPlant.fmu and reproduces the Python plant."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gyro_fmu import doctor as doc
+from gyro_fmu.parameters import DEFAULT_PRESET, PRESETS
+from gyro_fmu.plant import GyroPlantModel
+
+needs_c_host = pytest.mark.skipif(
+    not sys.platform.startswith("linux") or doc.find_compiler() is None,
+    reason="the C-host check needs Linux and a C compiler (cc, gcc, clang or $CC)",
+)
+
+
+@pytest.fixture(scope="module")
+def report(models_dir: Path) -> doc.DoctorReport:
+    if not sys.platform.startswith("linux") or doc.find_compiler() is None:
+        pytest.skip("the C-host check needs Linux and a C compiler (cc, gcc, clang or $CC)")
+    return doc.doctor(models_dir / "GyroPlant.fmu")
+
+
+@needs_c_host
+def test_c_host_reproduces_python_plant(report: doc.DoctorReport) -> None:
+    check = report.check
+    assert check is not None, report.format()
+    assert check.reached_end, report.format()
+    inputs, names = doc.CHECK_PLANS["GyroPlant"]
+    model = GyroPlantModel(PRESETS[DEFAULT_PRESET])
+    expected = []
+    for _ in range(doc.CHECK_STEPS):
+        model.step(inputs["ux"], inputs["uy"], inputs["Omega_z"], doc.CHECK_STEP)
+        expected.append(model.measured().copy())
+    expected_arr = np.array(expected)
+    assert len(check.times) == doc.CHECK_STEPS
+    np.testing.assert_allclose(check.times, doc.CHECK_STEP * np.arange(1, doc.CHECK_STEPS + 1),
+                               rtol=1e-15)
+    for i, name in enumerate(names):
+        got = np.array(check.outputs[name])
+        want = expected_arr[:, i]
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12 * np.abs(want).max(),
+                                   err_msg=name)
+    assert np.abs(expected_arr[:, 0]).max() > 1e-10  # a few nm: the drive really moved it
+
+
+@needs_c_host
+def test_check_can_fail_without_the_environment(report: doc.DoctorReport) -> None:
+    without = next(r for r in report.runs if r.label == "without")
+    assert without.returncode == 2, without.stdout  # dlopen failed
+    assert "undefined symbol: _Py" in without.stdout
+    assert not without.reached_end
+
+
+@needs_c_host
+def test_c_host_exits_cleanly(report: doc.DoctorReport) -> None:
+    """pythonfmu 0.7.0 frees its interpreter guard twice at exit (SIGABRT in a C host,
+    3 runs of 3 before gyro_fmu.pythonfmu_exit); with the workaround the host exits 0."""
+    check = report.check
+    assert check is not None
+    assert check.returncode == 0, check.stdout + check.stderr
+    assert not check.crashed_at_exit
+    text = report.format()
+    assert "export LD_PRELOAD=" in text and "export PYTHONHOME=" in text
+    assert ("CRASHED AT PROCESS EXIT" in text) == check.crashed_at_exit
+
+
+def test_settings_of_this_interpreter() -> None:
+    lib = doc.find_libpython()
+    if lib.path is None:
+        pytest.skip(f"this Python has no shared libpython: {lib.note}")
+    assert lib.path.is_file() and "python" in lib.path.name
+    paths, missing = doc.required_paths()
+    assert not missing
+    assert all((Path(p) / "numpy").is_dir() or (Path(p) / "scipy").is_dir() for p in paths)
+    assert doc.python_home().startswith(sys.base_prefix)
+
+
+def test_no_compiler_skips_cleanly(models_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(doc, "find_compiler", lambda: None)
+    report = doc.doctor(models_dir / "TwoToneDrive.fmu")
+    assert report.runs == []
+    assert report.check is None
+    if sys.platform.startswith("linux"):
+        assert any("no C compiler" in n for n in report.notes)
+        assert report.glibc_needed is not None and report.glibc_needed >= (2, 2)
+    assert "C-host check" in report.format() or "no C compiler" in report.format()
