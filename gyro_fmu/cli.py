@@ -140,6 +140,38 @@ def _cmd_doctor(args: argparse.Namespace) -> int:
     return doctor_main(Path(args.fmu) if args.fmu else None, compile_host=not args.no_compile)
 
 
+def _cmd_ssp(args: argparse.Namespace) -> int:
+    from .run import ensure_fmus, run_fmus
+    from .ssp import relative_differences, run_ssp_libcosim, write_ssp
+
+    sc = _scenario_from(args)
+    models = Path(args.models)
+    ensure_fmus(models)
+    path = write_ssp(sc, models, Path(args.out) if args.out else None)
+    print(f"wrote {path}")
+    if args.run or args.compare:
+        result = run_ssp_libcosim(path)
+        print(f"libcosim: Omega_hat at {sc.stop_time:g} s = "
+              f"{result['observer.Omega_hat'][-1]:.9g} rad/s")
+        if args.compare:
+            rel = relative_differences(result, run_fmus(sc, models))
+            worst = sorted(rel.items(), key=lambda kv: -kv[1])[:3]
+            print("max |libcosim - fmpy| / max |fmpy|, worst signals: "
+                  + ", ".join(f"{name} {value:.3g}" for name, value in worst))
+    return 0
+
+
+def _cmd_container(args: argparse.Namespace) -> int:
+    from .container import build_container
+    from .run import ensure_fmus
+
+    models = Path(args.models)
+    ensure_fmus(models)
+    path = build_container(models, Path(args.dest) if args.dest else None, args.step)
+    print(f"built {path}")
+    return 0
+
+
 def _print_summary(summary: dict) -> None:
     sc = summary["scenario"]
     print(f"preset {sc['preset']}, rate {sc['rate']['text']} rad/s, "
@@ -219,6 +251,23 @@ def parser() -> argparse.ArgumentParser:
                    help="band half-width as a fraction of each signal's range (default 1e-6)")
     v.add_argument("--dx", type=int, default=1, help="band width in samples (default 1)")
     v.set_defaults(func=_cmd_validate)
+
+    s = sub.add_parser("ssp", parents=[common],
+                       help="write the scenario's system as an SSP package; --run: in libcosim")
+    s.add_argument("--models", default=str(MODELS_DIR), help="folder of our FMUs")
+    s.add_argument("--out", help="package file (default MODELS/GyroSystem.ssp)")
+    s.add_argument("--run", action="store_true", help="run the package in libcosim")
+    s.add_argument("--compare", action="store_true",
+                   help="run it in libcosim and in the fmpy master, print the differences")
+    s.set_defaults(func=_cmd_ssp)
+
+    c = sub.add_parser("container", help="build the whole system as one FMU "
+                       "(models/GyroSystem.fmu, fmu-manipulation-toolbox)")
+    c.add_argument("--models", default=str(MODELS_DIR), help="folder of our FMUs")
+    c.add_argument("--dest", help="container file (default MODELS/GyroSystem.fmu)")
+    c.add_argument("--step", type=float, default=5e-6,
+                   help="internal fixed step, s (default 5e-6)")
+    c.set_defaults(func=_cmd_container)
 
     d = sub.add_parser("doctor", help="what OMSimulator/Simulink/Dymola/C hosts need to load "
                        "the FMUs, checked with a compiled C host")
