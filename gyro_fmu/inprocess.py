@@ -13,7 +13,7 @@ from .master import CoSimulationResult
 from .observer import GyroStateObserver, ObserverTuning
 from .parameters import GyroParameters
 from .plant import MEASURED, GyroPlantModel, MeasurementNoise
-from .scenario import Scenario, absolute_noise
+from .scenario import Scenario, absolute_noise, observer_tuning
 
 ESTIMATED = GyroStateObserver.ESTIMATED
 
@@ -37,10 +37,11 @@ COLUMNS = (
 def run_inprocess(sc: Scenario, noise: MeasurementNoise | None = None) -> CoSimulationResult:
     """Run the scenario in-process; returns the same columns as the FMU run."""
     drive, rate, h = sc.the_drive, sc.rate, sc.step
-    plant = GyroPlantModel(sc.params, absolute_noise(sc) if noise is None else noise, sc.seed)
+    noise = absolute_noise(sc) if noise is None else noise
+    plant = GyroPlantModel(sc.params, noise, sc.seed)
     observer = GyroStateObserver(
         GyroParameters(**sc.initial_guess), sc.Omega_z_0, sc.measured_pair,
-        ObserverTuning(**dict(sc.tuning)),
+        ObserverTuning(**observer_tuning(sc, noise)),
     )
     pair = (0, 2) if sc.measured_pair == 1 else (1, 3)
     data = np.empty((sc.n_steps + 1, len(COLUMNS)))

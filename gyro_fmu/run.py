@@ -6,6 +6,7 @@ import json
 import time
 import warnings
 from collections.abc import Mapping
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +16,8 @@ from .build import FMU_NAMES, MODELS_DIR, build_fmu
 from .master import CoSimulationResult, run_cosimulation
 from .metrics import ESTIMATED, summarize
 from .parameters import GyroParameters, validate_for_plant
-from .scenario import Scenario, absolute_noise, fmu_system
+from .plant import MeasurementNoise
+from .scenario import Scenario, absolute_noise, fmu_system, observer_tuning
 
 HAT = {"Omega_z": "Omega_hat"}
 
@@ -32,25 +34,34 @@ def ensure_fmus(models_dir: Path = MODELS_DIR) -> None:
 
 
 def run_fmus(
-    sc: Scenario, models_dir: Path = MODELS_DIR, fmus: Mapping[str, Path] | None = None
+    sc: Scenario,
+    models_dir: Path = MODELS_DIR,
+    fmus: Mapping[str, Path] | None = None,
+    noise: MeasurementNoise | None = None,
 ) -> CoSimulationResult:
-    """Co-simulate the scenario's standard system through the FMUs with the fmpy master."""
+    """Co-simulate the scenario's standard system through the FMUs with the fmpy master.
+
+    noise: the absolute pick-off noise, if already computed from the scenario.
+    """
     if not fmus:
         ensure_fmus(models_dir)
-    components, connections = fmu_system(sc, models_dir, fmus, absolute_noise(sc))
+    noise = absolute_noise(sc) if noise is None else noise
+    components, connections = fmu_system(sc, models_dir, fmus, noise)
     return run_cosimulation(components, connections, sc.stop_time, sc.step)
 
 
 def summary_of(sc: Scenario, result: CoSimulationResult, wall_time_s: float | None = None,
-               caught: list[str] | None = None) -> dict:
+               caught: list[str] | None = None, noise: MeasurementNoise | None = None) -> dict:
     truth: GyroParameters = sc.params
     estimates = {n: result[estimate_column(n)] for n in ESTIMATED}
     sigmas = {n: result[f"observer.sigma_{n}"] for n in ESTIMATED}
     metrics = summarize(result["time"], estimates, sigmas, truth, result["rate.Omega_z"])
     finite = bool(np.all(np.isfinite(result.data)))
+    noise = absolute_noise(sc) if noise is None else noise
     return {
         "gyro_fmu_version": __version__,
-        "scenario": sc.as_dict(),
+        "scenario": {**sc.as_dict(), "noise_std_absolute": asdict(noise),
+                     "observer_tuning": observer_tuning(sc, noise)},
         "true_parameters": truth.as_dict(),
         "finite": finite,
         "wall_time_s": wall_time_s,
@@ -72,12 +83,13 @@ def run_and_report(
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         validate_for_plant(sc.params)  # the growth-rate warning goes into summary.json
+        noise = absolute_noise(sc)
         start = time.perf_counter()
-        result = run_fmus(sc, models_dir, fmus)
+        result = run_fmus(sc, models_dir, fmus, noise)
         wall = time.perf_counter() - start
     messages = [str(w.message) for w in caught]
     result.write_csv(out_dir / "results.csv")
-    summary = summary_of(sc, result, wall, messages)
+    summary = summary_of(sc, result, wall, messages, noise)
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2))
     if figures:
         make_figures(result, sc.params, out_dir)

@@ -174,6 +174,28 @@ def absolute_noise(sc: Scenario, states: np.ndarray | None = None) -> Measuremen
     return MeasurementNoise(*(float(sc.noise * p) for p in peaks))
 
 
+#: q_Omega (rad^2/s^5) for a rate that is constant in time: the default 1e9 is sized for
+#: the patent's 100 Hz sine and wastes information on a constant rate (its sigmas then
+#: come out 3x too pessimistic at noise 1e-4; benchmarks/OBSERVER_NOTES.md).
+Q_OMEGA_CONSTANT_RATE = 1e2
+
+
+def observer_tuning(sc: Scenario, noise: MeasurementNoise) -> dict[str, float]:
+    """ObserverTuning a user would set for this scenario, overridden by sc.tuning.
+
+    The observer is told the pick-off noise of the pair it measures (absolute stds,
+    as a designer knows them from the electronics) and a rate bandwidth that suits
+    the rate profile: a constant rate gets Q_OMEGA_CONSTANT_RATE.
+    """
+    tuning: dict[str, float] = {}
+    if not noise.is_off:
+        z1, z2 = ("x", "y") if sc.measured_pair == 1 else ("vx", "vy")
+        tuning["sigma_z1"], tuning["sigma_z2"] = getattr(noise, z1), getattr(noise, z2)
+    if sc.rate.kind is RateKind.constant:
+        tuning["q_Omega"] = Q_OMEGA_CONSTANT_RATE
+    return {**tuning, **dict(sc.tuning)}
+
+
 #: The FMUs of the standard system, by instance name.
 INSTANCE_FMUS = {
     "drive": "TwoToneDrive.fmu",
@@ -221,7 +243,7 @@ def fmu_system(
                   "seed": sc.seed},
         "observer": {**{f"{k}_0": v for k, v in sc.initial_guess.items()},
                      "Omega_z_0": sc.Omega_z_0, "measured_pair": sc.measured_pair,
-                     **dict(sc.tuning)},
+                     **observer_tuning(sc, noise)},
     }
     replaced = set(fmus or {})
     components = [Component(name, paths[name], {} if name in replaced else parameters[name])
