@@ -64,5 +64,6 @@ def test_a_users_fmu_replaces_ours(models_dir, tmp_path):
     sc = scenario("default", stop_time=0.001)
     ours, theirs = run_fmus(sc, models_dir), run_fmus(sc, models_dir, {"drive": user_fmu})
     assert set(np.unique(np.abs(theirs["drive.ux"][1:]))) == {1e-7}
-    assert not np.allclose(ours["plant.x"], theirs["plant.x"])
+    assert np.max(np.abs(ours["plant.x"] - theirs["plant.x"])) > 0.1 * np.max(
+        np.abs(ours["plant.x"]))
     assert np.all(np.isfinite(theirs["observer.Omega_hat"]))
