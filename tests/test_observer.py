@@ -156,7 +156,11 @@ def test_no_update_without_information_does_not_move_parameters() -> None:
 
 # ---------------------------------------------------------------- consistency
 def test_sigmas_are_consistent_with_errors_under_noise() -> None:
-    """Pooled RMS(err / sigma) over seeds within a factor 3 of 1 (noise 1e-4 of peak)."""
+    """Pooled RMS(err / sigma) over seeds within a factor 3 of 1 (noise 1e-4 of peak).
+
+    A parameter error drifts slowly, so each seed gives about one independent sample:
+    8 seeds (measured 0.76-1.31 for all unknowns; 4 seeds once gave m 0.31 by chance).
+    """
     name = "park-horowitz"
     p = preset(name)
     n = 4000  # 20 ms
@@ -164,7 +168,7 @@ def test_sigmas_are_consistent_with_errors_under_noise() -> None:
     peak = np.abs(z0).max(axis=0)
     truth = np.array([1.0] + [getattr(p, nm) for nm in PARAMETER_NAMES])
     ratios = []
-    for seed in range(4):
+    for seed in range(8):
         rng = np.random.default_rng(seed)
         z = z0 + rng.standard_normal(z0.shape) * 1e-4 * peak
         obs = GyroStateObserver(guess(p), tuning=ObserverTuning(noise_rel=1e-4, q_Omega=1e6))
