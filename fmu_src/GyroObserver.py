@@ -9,6 +9,9 @@ _GUESS = default_initial_guess(PRESETS[DEFAULT_PRESET])
 _UNITS = {**PARAMETER_UNITS, "Omega_z": "rad/s"}
 _ESTIMATED = ("Omega_z", "kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m")
 _HAT = {"Omega_z": "Omega_hat"}  # the patent's Omega_z' is published as Omega_hat
+#: The outputs in the order of GyroStateObserver.output_row().
+_OUTPUTS = ("x_hat", "vx_hat", "y_hat", "vy_hat", *(_HAT.get(n, f"{n}_hat") for n in _ESTIMATED),
+            *(f"sigma_{n}" for n in _ESTIMATED))
 
 
 class GyroObserver(GyroSlave):
@@ -68,9 +71,4 @@ class GyroObserver(GyroSlave):
         self.observer.set_state(state)
 
     def _publish(self) -> None:
-        obs = self.observer
-        self.x_hat, self.vx_hat, self.y_hat, self.vy_hat = (float(v) for v in obs.state_estimate())
-        for n, value in obs.estimates().items():
-            setattr(self, _HAT.get(n, f"{n}_hat"), float(value))
-        for n, value in obs.sigmas().items():
-            setattr(self, f"sigma_{n}", float(value))
+        self.__dict__.update(zip(_OUTPUTS, self.observer.output_row(), strict=True))

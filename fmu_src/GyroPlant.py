@@ -61,5 +61,4 @@ class GyroPlant(GyroSlave):
         self.model.set_state(state)
 
     def _publish(self) -> None:
-        self.x, self.vx, self.y, self.vy = (float(v) for v in self.model.measured())
-        self.ax, self.ay = self.model.accelerations()
+        self.x, self.vx, self.y, self.vy, self.ax, self.ay = self.model.output_row()

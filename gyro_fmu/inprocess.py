@@ -55,10 +55,7 @@ def run_inprocess(sc: Scenario, noise: MeasurementNoise | None = None) -> CoSimu
         row[0:4] = t, ux, 0.0, Om
         row[4:8] = z
         row[8:10] = plant.accelerations()
-        row[10:14] = observer.state_estimate()
-        estimates, sigmas = observer.estimates(), observer.sigmas()
-        row[14:22] = [estimates[n] for n in ESTIMATED]
-        row[22:30] = [sigmas[n] for n in ESTIMATED]
+        row[10:30] = observer.output_row()
         if k == sc.n_steps:
             break
         plant.step(ux, 0.0, Om, h)

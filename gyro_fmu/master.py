@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import shutil
 from collections.abc import Iterable, Mapping, Sequence
-from ctypes import c_char_p, c_void_p
+from ctypes import CFUNCTYPE, c_char_p, c_double, c_int, c_size_t, c_void_p, cast
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,6 +25,7 @@ from fmpy.fmi2 import (  # type: ignore[attr-defined]
     fmi2CallbackFreeMemoryTYPE,
     fmi2CallbackFunctions,
     fmi2CallbackLoggerTYPE,
+    fmi2ValueReference,
     free,
 )
 
@@ -171,33 +172,117 @@ def run_cosimulation(
         outputs = _OutputTable(instances)
         wiring = _wire(outputs, connections)
         columns, getters = _recording(outputs, record)
+        plan = _Plan(instances, outputs, wiring, getters, n_steps)
         for inst in instances.values():
             _initialize(inst, start_time, stop_time, logger)
-        data = np.empty((n_steps + 1, len(columns)))
-        t = start_time
+        data = plan.data
+        base, row_bytes = data.ctypes.data, data.strides[0]
+        gets, sets, steps = plan.gets, plan.sets, plan.steps
         for k in range(n_steps + 1):
             t = start_time + k * step
-            values = {name: inst.slave.getReal(inst.out_vrs) if inst.out_vrs else []
-                      for name, inst in instances.items()}
-            data[k, 0] = t
-            for j, (name, idx) in enumerate(getters, start=1):
-                data[k, j] = values[name][idx]
+            addr = base + k * row_bytes
+            for get, comp, vrs, n, offset, name in gets:
+                if get(comp, vrs, n, addr + offset) > _WARNING:
+                    raise CoSimulationError(
+                        f"{name} refused fmi2GetReal at t={t:.9g} s; it said:\n"
+                        f"{logger.recent(name)}"
+                    )
             if k == n_steps:
                 break
-            for dst, (in_vrs, sources) in wiring.items():
-                instances[dst].slave.setReal(in_vrs, [values[s][i] for s, i in sources])
-            for name, inst in instances.items():
-                try:
-                    inst.slave.doStep(t, step)
-                except FMICallException as exc:
+            row = data[k]
+            for set_, comp, vrs, n, offset, idx, buf, buf_addr, name in sets:
+                if idx is None:
+                    status = set_(comp, vrs, n, addr + offset)
+                else:
+                    np.take(row, idx, out=buf)
+                    status = set_(comp, vrs, n, buf_addr)
+                if status > _WARNING:
                     raise CoSimulationError(
-                        f"{name} ({inst.component.fmu.name}) refused the step at t={t:.9g} s "
-                        f"({exc}); it said:\n{logger.recent(name)}"
-                    ) from None
-        return CoSimulationResult(tuple(columns), data, _units(instances))
+                        f"{name} refused fmi2SetReal at t={t:.9g} s; it said:\n"
+                        f"{logger.recent(name)}"
+                    )
+            for do_step, comp, name, fmu_name in steps:
+                if do_step(comp, t, step, 1) > _WARNING:
+                    raise CoSimulationError(
+                        f"{name} ({fmu_name}) refused the step at t={t:.9g} s "
+                        f"(fmi2DoStep returned an error status); it said:\n"
+                        f"{logger.recent(name)}"
+                    )
+        data[:, 0] = start_time + np.arange(n_steps + 1) * step
+        return CoSimulationResult(tuple(columns), plan.result(), _units(instances))
     finally:
         for inst in instances.values():
             _release(inst)
+
+
+#: fmi2Status values above this are errors (fmi2Warning = 1).
+_WARNING = 1
+#: Raw prototypes of the FMI functions the loop calls: addresses as plain integers, so
+#: getReal can write straight into a row of the result array (no ctypes array per call).
+_GET_SET_REAL = CFUNCTYPE(c_int, c_void_p, c_void_p, c_size_t, c_void_p)
+_DO_STEP = CFUNCTYPE(c_int, c_void_p, c_double, c_double, c_int)
+
+
+class _Plan:
+    """Memory layout and raw FMI entry points of the stepping loop.
+
+    Row layout: time, then each instance's outputs as one contiguous block (the recorded
+    ones first, in recording order, then those read only for connections), so each
+    instance fills its block with a single fmi2GetReal straight into the result array.
+    A destination whose sources sit in consecutive columns is set from the row itself;
+    otherwise its values are gathered into a small buffer first. The loop makes the FMI
+    calls the master always made (one getReal per FMU with outputs, one setReal per
+    connected FMU, one doStep per FMU), without fmpy's per-call ctypes conversions.
+    """
+
+    def __init__(self, instances: dict[str, _Instance], outputs: _OutputTable, wiring: dict,
+                 getters: list[tuple[str, int]], n_steps: int) -> None:
+        # outputs.add registered (instance, variable) -> position in inst.out_vrs
+        recorded = [(name, instances[name].out_vrs[i]) for name, i in getters]
+        column: dict[tuple[str, int], int] = {}
+        self.gets = []
+        ncol = 1
+        for name, inst in instances.items():
+            start = ncol
+            order = [vr for n, vr in recorded if n == name]
+            order += [vr for vr in inst.out_vrs if vr not in order]
+            for vr in order:
+                if (name, vr) not in column:
+                    column[(name, vr)] = ncol
+                    ncol += 1
+            vrs = [vr for vr in order if column[(name, vr)] >= start]
+            if vrs:
+                self.gets.append((_raw(inst.slave, "fmi2GetReal", _GET_SET_REAL),
+                                  inst.slave.component, _vr_array(vrs), len(vrs), start * 8,
+                                  name))
+        self.sets = []
+        for dst, (in_vrs, sources) in wiring.items():
+            cols = [column[(s, instances[s].out_vrs[i])] for s, i in sources]
+            slave = instances[dst].slave
+            contiguous = cols == list(range(cols[0], cols[0] + len(cols)))
+            idx = None if contiguous else np.array(cols, dtype=np.intp)
+            buf = np.empty(len(cols))
+            self.sets.append((_raw(slave, "fmi2SetReal", _GET_SET_REAL), slave.component,
+                              _vr_array(in_vrs), len(in_vrs), cols[0] * 8, idx, buf,
+                              buf.ctypes.data, dst))
+        self.steps = [(_raw(inst.slave, "fmi2DoStep", _DO_STEP), inst.slave.component, name,
+                       inst.component.fmu.name) for name, inst in instances.items()]
+        self._keep = [s[2] for s in self.gets] + [s[2] for s in self.sets]
+        self.data = np.empty((n_steps + 1, ncol))
+        wanted = [0] + [column[r] for r in recorded]
+        self._wanted = None if wanted == list(range(ncol)) else np.array(wanted, dtype=np.intp)
+
+    def result(self) -> np.ndarray:
+        """The recorded columns in the order asked for (no copy in the default layout)."""
+        return self.data if self._wanted is None else self.data[:, self._wanted]
+
+
+def _raw(slave: FMU2Slave, function: str, prototype):
+    return prototype(cast(getattr(slave.dll, function), c_void_p).value)
+
+
+def _vr_array(vrs: list[int]):
+    return (fmi2ValueReference * len(vrs))(*vrs)
 
 
 def _instantiate(comp: Component, callbacks: fmi2CallbackFunctions) -> _Instance:

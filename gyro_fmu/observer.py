@@ -53,8 +53,9 @@ import math
 from dataclasses import asdict, dataclass, fields
 
 import numpy as np
+from numba import njit
 
-from .parameters import PARAMETER_NAMES, GyroParameters, check_parameters
+from .parameters import GyroParameters, check_parameters
 
 _N_PAR = 7  # kxx, kyy, kxy, dxx, dyy, dxy, b = 1/m
 _I_PAR = 4  # index of the first parameter in the filter state
@@ -67,6 +68,250 @@ _FACT = np.array([math.factorial(k) for k in range(2 * _KMAX + 2)], dtype=float)
 _BETA = _FACT[_J][:, None] * _FACT[_J][None, :] / _FACT[_J[:, None] + _J[None, :] + 1]
 _INV = 1.0 / np.arange(1, _KMAX + 1)
 _STATE_VERSION = 1
+#: Outputs of output_row(): state estimate, ESTIMATED, their 1-sigmas.
+N_OUTPUTS = 4 + 8 + 8
+
+
+# ---------------------------------------------------------------- compiled kernels
+# One EKF step is ~40 small (5x5 .. 13x13) linear-algebra operations: in numpy each costs
+# 1-3 us of call overhead (120 us per step, benchmarks/PERF_NOTES.md); compiled with numba
+# the whole step takes a few us. The arithmetic is that of the numpy formulation it
+# replaced, written as loops (no fastmath: IEEE operations, no contraction).
+@njit(cache=True)
+def _n_terms(norm: float) -> int:
+    """Taylor terms K with norm^K / K! < 1e-15 (norm = ||A h||_inf <= 0.5)."""
+    term = 1.0
+    for k in range(1, _KMAX):
+        term *= norm / k
+        if term < 1e-15:
+            return k + 1
+    return _KMAX
+
+
+@njit(cache=True)
+def _held_step_single(xi0, Ah, h, MgT, beta, st, G, Gb, s1, Phi, S):  # pragma: no cover
+    """Taylor powers st[j] = (A h)^j / j!, their sum, and the Frechet series S (see _held_step)."""
+    norm = 0.0
+    for i in range(4):
+        r = 0.0
+        for c in range(5):
+            r += abs(Ah[i, c])
+        norm = max(norm, r)
+    K = _n_terms(norm)
+    for j in range(K - 1):
+        inv = 1.0 / (j + 1)
+        for a in range(5):
+            for c in range(5):
+                acc = 0.0
+                for b in range(5):
+                    acc += st[j, a, b] * (Ah[b, c] * inv)
+                st[j + 1, a, c] = acc
+    for i in range(4):
+        for c in range(4):
+            acc = 0.0
+            for j in range(K):
+                acc += st[j, i, c]
+            Phi[i, c] = acc
+        acc = 0.0
+        for c in range(5):
+            e = 0.0
+            for j in range(K):
+                e += st[j, i, c]
+            acc += e * xi0[c]
+        s1[i] = acc
+    # G[m] = (T_m xi0) MgT: rows 1 and 3 of dA/d(p, Omega) (T_m xi0)
+    for m in range(K):
+        for q in range(16):
+            G[m, q] = 0.0
+        for a in range(5):
+            txi = 0.0
+            for b in range(5):
+                txi += st[m, a, b] * xi0[b]
+            for q in range(16):
+                G[m, q] += txi * MgT[a, q]
+    for j in range(K):
+        for q in range(16):
+            acc = 0.0
+            for m in range(K):
+                acc += beta[j, m] * G[m, q]
+            Gb[j, q] = acc
+    for i in range(4):
+        for q in range(8):
+            acc = 0.0
+            for j in range(K):
+                acc += st[j, i, 1] * Gb[j, q] + st[j, i, 3] * Gb[j, 8 + q]
+            S[i, q] = acc * h
+
+
+@njit(cache=True)
+def _held_step_kernel(xi0, Ah, h, MgT, beta, st, G, Gb, s1, Phi, S):  # pragma: no cover
+    """s1 = s(t+h), Phi = ds1/ds, S = ds1/d(p, Omega); long steps in equal sub-steps."""
+    norm = 0.0
+    for i in range(4):
+        r = 0.0
+        for c in range(5):
+            r += abs(Ah[i, c])
+        norm = max(norm, r)
+    if norm <= _STEP_NORM:
+        _held_step_single(xi0, Ah, h, MgT, beta, st, G, Gb, s1, Phi, S)
+        return
+    nsub = math.ceil(norm / _STEP_NORM)
+    Ahs = Ah / nsub
+    xi = xi0.copy()
+    Phi_t = np.eye(4)
+    S_t = np.zeros((4, 8))
+    Phi1 = np.empty((4, 4))
+    S1 = np.empty((4, 8))
+    s_1 = np.empty(4)
+    for _ in range(nsub):
+        _held_step_single(xi, Ahs, h / nsub, MgT, beta, st, G, Gb, s_1, Phi1, S1)
+        S_t = Phi1 @ S_t + S1
+        Phi_t = Phi1 @ Phi_t
+        xi[:4] = s_1
+    s1[:] = xi[:4]
+    Phi[:, :] = Phi_t
+    S[:, :] = S_t
+
+
+@njit(cache=True)
+def _rel_R(nu2, j, nu, peak, h, noise_rel, innov_floor, innov_tau):  # pragma: no cover
+    """Relative-mode noise variance: (noise_rel peak)^2, floored by the innovations."""
+    v2 = nu * nu
+    e = nu2[j]
+    e = v2 if e < 0.0 else e + min(h / innov_tau, 1.0) * (v2 - e)
+    nu2[j] = e
+    return max((noise_rel * peak) ** 2, innov_floor * e)
+
+
+@njit(cache=True)
+def _ekf_step(x, P, peak, nu2, F, Q, MgT, A, theta0, scale, hgain, i0, wx, wy,
+              ux, uy, z1, z2, h, sz1, sz2, noise_rel, innov_floor, innov_tau, joseph,
+              beta, st, G, Gb):  # pragma: no cover
+    """Correct x, P with (z1, z2) at t, then propagate them to t + h, in place."""
+    n = x.shape[0]
+    i1 = i0 + 2
+    g0 = hgain[0]
+    g1 = hgain[1]
+    # ---- correction (eq. 8: L C (X - X^), L from the covariance)
+    nu0 = z1 - g0 * x[i0]
+    nu1 = z2 - g1 * x[i1]
+    if abs(z1) > peak[0]:
+        peak[0] = abs(z1)
+    if abs(z2) > peak[1]:
+        peak[1] = abs(z2)
+    if sz1 > 0.0:
+        R0 = sz1 * sz1
+    else:
+        R0 = _rel_R(nu2, 0, nu0, peak[0], h, noise_rel, innov_floor, innov_tau)
+    if sz2 > 0.0:
+        R1 = sz2 * sz2
+    else:
+        R1 = _rel_R(nu2, 1, nu1, peak[1], h, noise_rel, innov_floor, innov_tau)
+    a = P[i0, i0] * g0 * g0 + R0
+    b_ = P[i0, i1] * g0 * g1
+    c = P[i1, i0] * g0 * g1
+    d = P[i1, i1] * g1 * g1 + R1
+    det = a * d - b_ * c
+    if det > 0.0 and a > 0.0:
+        s00, s01, s10, s11 = d / det, -b_ / det, -c / det, a / det
+        PHt = np.empty((n, 2))
+        K = np.empty((n, 2))
+        for i in range(n):
+            PHt[i, 0] = P[i, i0] * g0
+            PHt[i, 1] = P[i, i1] * g1
+        for i in range(n):
+            K[i, 0] = PHt[i, 0] * s00 + PHt[i, 1] * s10
+            K[i, 1] = PHt[i, 0] * s01 + PHt[i, 1] * s11
+            x[i] = x[i] + (K[i, 0] * nu0 + K[i, 1] * nu1)
+        if joseph:
+            IKH = np.eye(n)
+            for i in range(n):
+                IKH[i, i0] -= K[i, 0] * g0
+                IKH[i, i1] -= K[i, 1] * g1
+            KR = np.empty((n, 2))
+            for i in range(n):
+                KR[i, 0] = K[i, 0] * R0
+                KR[i, 1] = K[i, 1] * R1
+            P[:, :] = IKH @ P @ IKH.T + KR @ K.T
+        else:
+            for i in range(n):
+                for j in range(n):
+                    P[i, j] -= K[i, 0] * PHt[j, 0] + K[i, 1] * PHt[j, 1]
+    # ---- propagation to t + h (eq. 5, held ux, uy, Omega_z, exact). A is eqs. 3-4 of
+    # parameters.system_matrix in the filter's scaling; tests/test_observer.py holds
+    # this step equal to the plant's.
+    kxx = theta0[0] + scale[0] * x[4]
+    kyy = theta0[1] + scale[1] * x[5]
+    kxy = theta0[2] + scale[2] * x[6]
+    dxx = theta0[3] + scale[3] * x[7]
+    dyy = theta0[4] + scale[4] * x[8]
+    dxy = theta0[5] + scale[5] * x[9]
+    b = theta0[6] + scale[6] * x[10]
+    Om = x[11]
+    A[1, 0] = -kxx / wx
+    A[1, 1] = -dxx
+    A[1, 2] = -kxy / wx
+    A[1, 3] = (2.0 * Om - dxy) * wy / wx
+    A[1, 4] = b * ux / wx
+    A[3, 0] = -kxy / wy
+    A[3, 1] = -(dxy + 2.0 * Om) * wx / wy
+    A[3, 2] = -kyy / wy
+    A[3, 3] = -dyy
+    A[3, 4] = b * uy / wy
+    MgT[4, 6] = scale[6] * ux / wx
+    MgT[4, 14] = scale[6] * uy / wy
+    xi0 = np.ones(5)
+    xi0[:4] = x[:4]
+    s1 = np.empty(4)
+    Phi = np.empty((4, 4))
+    S = np.empty((4, 8))
+    _held_step_kernel(xi0, A * h, h, MgT, beta, st, G, Gb, s1, Phi, S)
+    for i in range(4):
+        for j in range(4):
+            F[i, j] = Phi[i, j]
+        for j in range(8):
+            F[i, 4 + j] = S[i, j]
+    x_new = np.empty(n)
+    for i in range(n):
+        acc = 0.0
+        for j in range(n):
+            acc += F[i, j] * x[j]
+        x_new[i] = acc
+    x_new[:4] = s1
+    x[:] = x_new
+    FP = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += F[i, k] * P[k, j]
+            FP[i, j] = acc
+    Pn = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += FP[i, k] * F[j, k]
+            Pn[i, j] = acc + Q[i, j]
+    for i in range(n):
+        for j in range(n):
+            P[i, j] = (Pn[i, j] + Pn[j, i]) * 0.5
+
+
+@njit(cache=True)
+def _output_row(x, P, theta0, scale, Tdiag, out):  # pragma: no cover
+    """[x, vx, y, vy], ESTIMATED, their 1-sigmas (m by the delta method from b = 1/m)."""
+    for i in range(4):
+        out[i] = x[i] / Tdiag[i]
+    out[4] = x[_I_OM]
+    for i in range(6):
+        out[5 + i] = theta0[i] + scale[i] * x[_I_PAR + i]
+    b = theta0[6] + scale[6] * x[_I_PAR + 6]
+    out[11] = 1.0 / b
+    out[12] = math.sqrt(max(P[_I_OM, _I_OM], 0.0))
+    for i in range(6):
+        out[13 + i] = math.sqrt(max(P[_I_PAR + i, _I_PAR + i], 0.0)) * scale[i]
+    out[19] = math.sqrt(max(P[_I_PAR + 6, _I_PAR + 6], 0.0)) * scale[6] / (b * b)
 
 
 @dataclass(frozen=True)
@@ -121,16 +366,6 @@ class ObserverTuning:
                     f"ObserverTuning.{name}={getattr(self, name)!r} must be > 0: a zero "
                     "initial uncertainty freezes that estimate"
                 )
-
-
-def _n_terms(norm: float) -> int:
-    """Taylor terms K with norm^K / K! < 1e-15 (norm = ||A h||_inf <= 0.5)."""
-    term = 1.0
-    for k in range(1, _KMAX):
-        term *= norm / k
-        if term < 1e-15:
-            return k + 1
-    return _KMAX
 
 
 class GyroStateObserver:
@@ -241,17 +476,15 @@ class GyroStateObserver:
             self._hsl = slice(1, 4, 2)
             self._hgain = np.array([wx, wy])
         self._hg = tuple(self._hgain.tolist())
+        self._i0 = self._hsl.start
+        self._G = np.zeros((_KMAX, 16))
+        self._Gb = np.zeros((_KMAX, 16))
+        self._out = np.empty(N_OUTPUTS)
+        tun = self.tuning
+        self._kargs = (float(tun.sigma_z1), float(tun.sigma_z2), float(tun.noise_rel),
+                       float(tun.innov_floor), float(tun.innov_tau), bool(tun.joseph))
 
     # ------------------------------------------------------------------ internals
-    def _rel_R(self, j: int, nu: float, peak: float, h: float) -> float:
-        """Relative-mode noise variance: (noise_rel peak)^2, floored by the innovations."""
-        tun = self.tuning
-        v2 = nu * nu
-        e = self.nu2[j]
-        e = v2 if e < 0.0 else e + min(h / tun.innov_tau, 1.0) * (v2 - e)
-        self.nu2[j] = e
-        return max((tun.noise_rel * peak) ** 2, tun.innov_floor * e)
-
     def _set_h(self, h: float) -> None:
         """Omega-model transition and process noise of a step h (cached: h rarely changes)."""
         tun = self.tuning
@@ -277,31 +510,14 @@ class GyroStateObserver:
 
         Taylor powers T_j = (A h)^j / j! give Phi_aug = sum T_j = expm(A_aug h) and the
         Frechet series S = h sum_{j,m} j! m! / (j+m+1)! T_j G(T_m xi0), G(xi) = dA/dtheta xi.
+        Steps with ||A h|| > 0.5 are split into equal sub-steps (Jacobians chained).
+        The same kernel runs inside step().
         """
-        norm = float(np.abs(Ah[:4]).sum(axis=1).max())
-        if norm > _STEP_NORM:  # long step: equal sub-steps, chain the Jacobians
-            nsub = math.ceil(norm / _STEP_NORM)
-            xi = xi0.copy()
-            Phi_t = np.eye(4)
-            S_t = np.zeros((4, 8))
-            for _ in range(nsub):
-                s1, Phi, S = self._held_step(xi, Ah / nsub, h / nsub)
-                S_t = Phi @ S_t + S
-                Phi_t = Phi @ Phi_t
-                xi[:4] = s1
-            return xi[:4].copy(), Phi_t, S_t
-        K = _n_terms(norm)
-        st = self._stack
-        Ahd = Ah[None, :, :] * _INV[:K - 1, None, None]
-        for j in range(K - 1):
-            np.matmul(st[j], Ahd[j], out=st[j + 1])
-        Tk = st[:K]
-        Phi_aug = np.add.reduce(Tk, axis=0)
-        G = (Tk @ xi0) @ self._MgT  # (K, 16): rows 1 and 3 of G(T_m xi0)
-        Gb = (_BETA[:K, :K] @ G).reshape(2 * K, 8)
-        Pj = Tk[:, :4, 1::2].transpose(1, 0, 2).reshape(4, 2 * K)
-        S = (Pj @ Gb) * h
-        return Phi_aug[:4] @ xi0, Phi_aug[:4, :4], S
+        s1, Phi, S = np.empty(4), np.empty((4, 4)), np.empty((4, 8))
+        _held_step_kernel(np.ascontiguousarray(xi0, dtype=float),
+                          np.ascontiguousarray(Ah, dtype=float), float(h), self._MgT, _BETA,
+                          self._stack, self._G, self._Gb, s1, Phi, S)
+        return s1, Phi, S
 
     # ------------------------------------------------------------------ API
     def step(self, ux: float, uy: float, z1: float, z2: float, h: float) -> None:
@@ -318,104 +534,34 @@ class GyroStateObserver:
                 f"non-finite input ux={ux!r}, uy={uy!r}, z1={z1!r}, z2={z2!r}: "
                 "pass finite forces (N) and measurements"
             )
-        tun = self.tuning
-        x = self.xhat
-        P = self.P
-        # ---- correction (eq. 8: L C (X - X^), L from the covariance)
-        sl = self._hsl
-        g0, g1 = self._hg
-        xs0, xs1 = x[sl].tolist()
-        nu0 = z1 - g0 * xs0
-        nu1 = z2 - g1 * xs1
-        peak = self.peak
-        if abs(z1) > peak[0]:
-            peak[0] = abs(z1)
-        if abs(z2) > peak[1]:
-            peak[1] = abs(z2)
-        if tun.sigma_z1 > 0.0:
-            R0 = tun.sigma_z1 * tun.sigma_z1
-        else:
-            R0 = self._rel_R(0, nu0, float(peak[0]), h)
-        if tun.sigma_z2 > 0.0:
-            R1 = tun.sigma_z2 * tun.sigma_z2
-        else:
-            R1 = self._rel_R(1, nu1, float(peak[1]), h)
-        (a, b_), (c, d) = P[sl, sl].tolist()
-        a = a * g0 * g0 + R0
-        b_ = b_ * g0 * g1
-        c = c * g0 * g1
-        d = d * g1 * g1 + R1
-        det = a * d - b_ * c
-        if det > 0.0 and a > 0.0:
-            PHt = P[:, sl] * self._hgain
-            K = PHt @ np.array([[d / det, -b_ / det], [-c / det, a / det]])
-            x = x + K @ np.array([nu0, nu1])
-            if tun.joseph:
-                IKH = np.eye(self.n)
-                IKH[:, sl] -= K * self._hgain
-                P = IKH @ P @ IKH.T + (K * np.array([R0, R1])) @ K.T
-            else:
-                P = P - K @ PHt.T
-        # ---- propagation to t + h (eq. 5, held ux, uy, Omega_z, exact). A is eqs. 3-4 of
-        # parameters.system_matrix in the filter's scaling, filled in place for speed;
-        # tests/test_observer.py holds this step equal to the plant's to 2e-16.
         if h != self._h_cached:
             self._set_h(h)
-        kxx, kyy, kxy, dxx, dyy, dxy, b = (
-            self.theta0 + self.scale * x[_I_PAR:_I_PAR + _N_PAR]).tolist()
-        Om = float(x[_I_OM])
-        wx, wy = self.wx, self.wy
-        A = self._Aaug
-        A[1, 0] = -kxx / wx
-        A[1, 1] = -dxx
-        A[1, 2] = -kxy / wx
-        A[1, 3] = (2.0 * Om - dxy) * wy / wx
-        A[1, 4] = b * ux / wx
-        A[3, 0] = -kxy / wy
-        A[3, 1] = -(dxy + 2.0 * Om) * wx / wy
-        A[3, 2] = -kyy / wy
-        A[3, 3] = -dyy
-        A[3, 4] = b * uy / wy
-        self._MgT[4, 6] = self.scale[6] * ux / wx
-        self._MgT[4, 14] = self.scale[6] * uy / wy
-        xi0 = np.ones(5)
-        xi0[:4] = x[:4]
-        s_new, Phi, Sens = self._held_step(xi0, A * h, h)
-        F = self._F
-        F[:4, :4] = Phi
-        F[:4, 4:12] = Sens
-        x_new = F @ x
-        x_new[:4] = s_new
-        P = F @ P @ F.T + self._Q
-        self.xhat = x_new
-        self.P = (P + P.T) * 0.5
+        sz1, sz2, noise_rel, innov_floor, innov_tau, joseph = self._kargs
+        _ekf_step(self.xhat, self.P, self.peak, self.nu2, self._F, self._Q, self._MgT,
+                  self._Aaug, self.theta0, self.scale, self._hgain, self._i0, self.wx, self.wy,
+                  float(ux), float(uy), float(z1), float(z2), float(h), sz1, sz2, noise_rel,
+                  innov_floor, innov_tau, joseph, _BETA, self._stack, self._G, self._Gb)
         self.t += h
+
+    def output_row(self) -> list[float]:
+        """[x, vx, y, vy] (m, m/s), ESTIMATED, then their 1-sigmas: what the FMU publishes."""
+        _output_row(self.xhat, self.P, self.theta0, self.scale, self._Tdiag, self._out)
+        return self._out.tolist()
 
     def state_estimate(self) -> np.ndarray:
         """[x, vx, y, vy] at the current time (m, m/s)."""
-        return self.xhat[:4] / self._Tdiag
+        return np.array(self.output_row()[:4])
 
     def _theta(self) -> np.ndarray:
         return self.theta0 + self.scale * self.xhat[_I_PAR:_I_PAR + _N_PAR]
 
     def estimates(self) -> dict[str, float]:
         """Current estimates of ESTIMATED (k's 1/s^2, d's 1/s, m kg, Omega_z rad/s)."""
-        th = self._theta().tolist()
-        out = {"Omega_z": float(self.xhat[_I_OM])}
-        for i, name in enumerate(PARAMETER_NAMES[:6]):
-            out[name] = th[i]
-        out["m"] = 1.0 / th[6]
-        return out
+        return dict(zip(self.ESTIMATED, self.output_row()[4:12], strict=True))
 
     def sigmas(self) -> dict[str, float]:
         """1-sigma of each ESTIMATED from the covariance (m by the delta method from 1/m)."""
-        sd = np.sqrt(np.maximum(np.diag(self.P), 0.0))
-        b = float(self._theta()[6])
-        out = {"Omega_z": float(sd[_I_OM])}
-        for i, name in enumerate(PARAMETER_NAMES[:6]):
-            out[name] = float(sd[_I_PAR + i] * self.scale[i])
-        out["m"] = float(sd[_I_PAR + 6] * self.scale[6] / (b * b))
-        return out
+        return dict(zip(self.ESTIMATED, self.output_row()[12:20], strict=True))
 
     def get_state(self) -> dict:
         """Everything internal as plain floats / lists (JSON-serializable)."""

@@ -60,6 +60,7 @@ class GyroPlantModel:
         self.params = validate_for_plant(params)
         self.noise = noise or MeasurementNoise()
         self._sigma = self.noise.as_array()
+        self._noisy = bool(self._sigma.any())
         self._rng = np.random.default_rng(seed)
         self._stepper = HeldInputStepper(self.params)
         self.s = np.zeros(4) if state0 is None else np.asarray(state0, dtype=float).copy()
@@ -67,7 +68,7 @@ class GyroPlantModel:
         self._draw_noise()
 
     def _draw_noise(self) -> None:
-        self._noise = self._rng.standard_normal(4) * self._sigma if self._sigma.any() else None
+        self._noise = self._rng.standard_normal(4) * self._sigma if self._noisy else None
 
     def step(self, ux: float, uy: float, Omega_z: float, h: float) -> None:
         """Advance from t to t+h with ux, uy (N) and Omega_z (rad/s) held over the step."""
@@ -85,6 +86,10 @@ class GyroPlantModel:
         """ax, ay (m/s^2) at the current time with the inputs of the last step (left limit)."""
         ux, uy, Omega_z = self.held
         return accelerations(self.params, self.s, ux, uy, Omega_z)
+
+    def output_row(self) -> list[float]:
+        """[x, vx, y, vy] measured (noise included), then ax, ay: the FMU's outputs."""
+        return [*self.measured().tolist(), *self.accelerations()]
 
     # --- state for FMI get/set (everything that determines future outputs) ---
     def get_state(self) -> dict:
