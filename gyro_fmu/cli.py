@@ -172,6 +172,96 @@ def _cmd_container(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_identify(args: argparse.Namespace) -> int:
+    from .identify import identify, read_record
+    from .parameters import GyroParameters
+
+    sc = _scenario_from(args)  # the start of the fit: --preset/--set (default: park-horowitz)
+    rec = read_record(Path(args.results), args.measured_pair or 1, args.window)
+    start = GyroParameters(**sc.initial_guess) if args.start_from_guess else sc.params
+    ident = identify(rec, start, sc.Omega_z_0, noise_std=args.noise_std,
+                     fit_initial_state=args.fit_initial_state)
+    noise = "estimated from the residuals" if ident.noise_estimated else "given"
+    print(f"{args.results}: {ident.n_samples} samples over {ident.window * 1e3:g} ms at "
+          f"{rec.h * 1e6:g} us, pair {ident.measured_pair}; initial state "
+          f"{'fitted' if ident.fit_initial_state else 'at rest'}; noise std "
+          f"{ident.noise_std[0]:.3g}, {ident.noise_std[1]:.3g} ({noise})")
+    print(ident.table())
+    print(f"estimates +- Cramer-Rao 1-sigma at the solution; {ident.nfev} evaluations, "
+          f"{ident.message}")
+    if args.json:
+        Path(args.json).write_text(json.dumps(
+            {"estimates": ident.estimates, "crb_sigma": ident.crb_sigma,
+             "noise_std": ident.noise_std, "noise_estimated": ident.noise_estimated,
+             "initial_state": ident.initial_state, "window_s": ident.window}, indent=2))
+        print(f"wrote {args.json}")
+    return 0 if ident.success else 1
+
+
+def _cmd_design_drive(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from .excitation import crb, design_drive, heat_map
+
+    sc = _scenario_from(args)
+    weights = _assignments(args.weight, "--weight") if args.weight else None
+    freqs = np.arange(args.f_min, args.f_max + 0.5 * args.f_step, args.f_step)
+    force = args.force_limit or (sc.the_drive.A1 + sc.the_drive.A2)
+    Omega = sc.rate.Omega_z(0.0)
+    noise = args.noise if args.noise is not None else 1e-4
+    d = design_drive(sc.params, freqs, force, Omega, noise, args.window, sc.step,
+                     sc.measured_pair, splits=args.splits, weights=weights,
+                     noise_kind=args.noise_kind)
+    current = crb(sc.params, sc.the_drive, Omega, noise, args.window, sc.step,
+                  sc.measured_pair, args.noise_kind)
+    p, best = d.proposal, d.proposal_sigma
+    print(f"preset {sc.preset}, Omega_z {Omega:g} rad/s, window {args.window * 1e3:g} ms, "
+          f"noise {noise:g} ({args.noise_kind}), force limit {force:g} N, "
+          f"{len(freqs)} frequencies {freqs[0]:g}..{freqs[-1]:g} Hz, splits {list(args.splits)}")
+    print(f"{'':>26}" + "".join(f"{n:>10}" for n in best))
+    print(f"{'CRB, proposal':>26}" + "".join(f"{v:10.3g}" for v in best.values()))
+    print(f"{f'CRB, {sc.the_drive.f1:g} + {sc.the_drive.f2:g} Hz':>26}"
+          + "".join(f"{v:10.3g}" for v in current.values()))
+    print(f"proposal: --drive f1={p.f1:g} --drive A1={p.A1:.4g} --drive f2={p.f2:g} "
+          f"--drive A2={p.A2:.4g}")
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    print(f"wrote {heat_map(d, out)}")
+    return 0
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from .parameters import PARAMETER_NAMES
+    from .sweep import SweepSpec, ToleranceModel, run_sweep, write_outputs
+
+    sc = _scenario_from(args)
+    spread = dict.fromkeys(PARAMETER_NAMES, args.spread)
+    spread.update(_assignments(args.spread_of, "--spread-of"))
+    tolerances = ToleranceModel(sc.preset, dict(sc.overrides), spread, args.distribution,
+                                args.tolerance_seed)
+    spec = SweepSpec(tolerances, n=args.n, noise=sc.noise if args.noise is not None else 1e-5,
+                     Omega_z=sc.rate.Omega_z(0.0), stop_time=sc.stop_time
+                     if args.stop_time is not None else 0.08, deadline=args.deadline,
+                     step=sc.step, measured_pair=sc.measured_pair, noise_seed=sc.seed,
+                     tuning=dict(sc.tuning))
+    res = run_sweep(spec, Path(args.models), scheduler=args.scheduler, n_workers=args.workers)
+    paths = write_outputs(res, Path(args.out), figures=not args.no_figures)
+    s = res.summary()
+    conv = s["convergence_time_s"]
+    print(f"{s['n']} gyros ({s['ok']} ok, {s['failed']} failed) in {s['wall_s']:.0f} s on "
+          f"{s['n_workers']} workers: {s['gyros_per_minute']:.1f} gyros/min")
+    print(f"all 8 within tolerance at {s['deadline_s'] * 1e3:g} ms: "
+          f"{s['fraction_all_within_at_deadline']:.1%}; convergence time p50 "
+          f"{(conv['p50'] or 0) * 1e3:.2f} ms, p95 {(conv['p95'] or 0) * 1e3:.2f} ms, "
+          f"never {conv['never']}")
+    for f in s["failures"][:10]:
+        print(f"  failed gyro {f['gyro']}: {f['reason']}")
+    print("wrote " + ", ".join(str(p) for p in paths))
+    return 0
+
+# --- in main(), after the `observability` subparser: ---------------------------------------
+
+
 def _print_summary(summary: dict) -> None:
     sc = summary["scenario"]
     print(f"preset {sc['preset']}, rate {sc['rate']['text']} rad/s, "
@@ -243,6 +333,63 @@ def parser() -> argparse.ArgumentParser:
                        help="rank and condition of the eq. 7 test, one tone vs two")
     o.add_argument("--window", type=float, default=0.04, help="window length, s")
     o.set_defaults(func=_cmd_observability)
+
+    i = sub.add_parser("identify", parents=[common],
+                       help="batch least-squares fit of the 7 parameters and a constant "
+                            "Omega_z to a recorded run, with the Cramer-Rao bound")
+    i.add_argument("results", help="CSV with time, drive.ux[, drive.uy] and plant.x, plant.y "
+                                   "(--measured-pair 1) or plant.vx, plant.vy (2)")
+    i.add_argument("--noise-std", dest="noise_std", type=float, nargs=2, metavar=("STD1", "STD2"),
+                   help="absolute noise std of the two measured signals (default: estimated "
+                        "from the residuals)")
+    i.add_argument("--window", type=float, help="use only the first WINDOW s of the record")
+    i.add_argument("--fit-initial-state", dest="fit_initial_state", action="store_true",
+                   help="fit the initial state too (default: the plant is at rest at the "
+                        "first sample)")
+    i.add_argument("--start-from-guess", dest="start_from_guess", action="store_true",
+                   help="start from the observer's initial guess instead of the preset values")
+    i.add_argument("--json", help="also write the estimates and bounds to this JSON file")
+    i.set_defaults(func=_cmd_identify)
+
+    dd = sub.add_parser("design-drive", parents=[common],
+                        help="Cramer-Rao bound over a grid of two-tone drives; propose the "
+                             "pair minimizing the bound on Omega_z (or a weighted sum)")
+    dd.add_argument("--window", type=float, default=0.04, help="window length, s")
+    dd.add_argument("--f-min", dest="f_min", type=float, default=500.0, help="Hz")
+    dd.add_argument("--f-max", dest="f_max", type=float, default=6000.0, help="Hz")
+    dd.add_argument("--f-step", dest="f_step", type=float, default=250.0, help="Hz")
+    dd.add_argument("--force-limit", dest="force_limit", type=float,
+                    help="A1 + A2, N (default: the scenario drive's A1 + A2)")
+    dd.add_argument("--splits", type=float, nargs="+", default=[0.25, 0.5, 0.75],
+                    help="fractions of the force limit on tone 1")
+    dd.add_argument("--noise-kind", dest="noise_kind", choices=("relative", "absolute"),
+                    default="relative", help="--noise as a fraction of each signal's peak "
+                    "(default 1e-4) or an absolute std in m (or m/s)")
+    dd.add_argument("--weight", action="append", metavar="NAME=W",
+                    help="objective: sum of W * sigma/tolerance (default Omega_z=1)")
+    dd.add_argument("--out", default="runs/design-drive/crb_heatmap.png", help="heat map PNG")
+    dd.set_defaults(func=_cmd_design_drive)
+
+    sw = sub.add_parser("sweep", parents=[common],
+                        help="Monte Carlo over fabrication tolerances: N gyros, each a real "
+                             "FMU co-simulation, on Dask")
+    sw.add_argument("-n", "--n", type=int, default=200, help="number of gyros")
+    sw.add_argument("--spread", type=float, default=0.10,
+                    help="relative spread of every parameter (default 0.10)")
+    sw.add_argument("--spread-of", dest="spread_of", action="append", metavar="NAME=S",
+                    help="relative spread of one parameter")
+    sw.add_argument("--distribution", choices=("uniform", "normal"), default="uniform",
+                    help="uniform: nominal*(1+S*U(-1,1)); normal: nominal*(1+S*N(0,1))")
+    sw.add_argument("--tolerance-seed", dest="tolerance_seed", type=int, default=0)
+    sw.add_argument("--deadline", type=float, help="s (default: the stop time, 0.08)")
+    sw.add_argument("--scheduler", help="address of an existing Dask scheduler "
+                                        "(default: a local cluster)")
+    sw.add_argument("--workers", type=int, help="local cluster workers (default: all cores)")
+    sw.add_argument("--models", default=str(MODELS_DIR), help="folder of our FMUs")
+    sw.add_argument("--out", default="runs/sweep", help="output folder")
+    sw.add_argument("--no-figures", action="store_true", help="skip the histograms")
+    sw.set_defaults(func=_cmd_sweep)
+
 
     v = sub.add_parser("validate", help="re-simulate FMUs and compare with the reference "
                        "results they carry (fmi-ls-ref); exit 1 on any difference")

@@ -1,0 +1,411 @@
+"""Monte Carlo over fabrication tolerances: many gyroscopes, each a real FMU co-simulation, on Dask.
+
+A :class:`ToleranceModel` (a preset as nominal, a relative spread per parameter,
+normal or uniform, a seed) draws N gyroscopes. Each one runs as a real
+co-simulation of the four FMUs (:func:`gyro_fmu.run.run_fmus`) with the drawn
+parameters as the plant's truth and the **nominal** values as the observer's
+initial guess, and is reduced to one row: the drawn parameters, final estimates
+and errors, the convergence time of each unknown (stays within tolerance to the
+end of the run: 1% of its truth, 0.1 1/s for a zero damping, 1% of the peak
+rate; :mod:`gyro_fmu.metrics`), whether all 8 are within tolerance at the
+deadline, the wall time, and a status ``ok`` or ``failed`` with the reason.
+
+The runs are Dask tasks: a ``dask.distributed.LocalCluster`` (one single-threaded
+worker process per core) by default, or an existing scheduler by address
+(``scheduler="tcp://host:8786"``); nothing else changes. Workers need gyro_fmu
+installed; the FMUs are found through the absolute ``models_dir`` each task
+receives (on a remote cluster that path must exist on the workers, e.g. a shared
+file system). A run that fails (unusable parameters, FMU error, NaN, divergence,
+even a worker crash) becomes a row with its reason: it is never lost and never
+stops the sweep.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import sys
+import time
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from .metrics import ESTIMATED, convergence_time, tolerance
+from .parameters import PARAMETER_NAMES, ParameterError, preset
+from .scenario import Scenario, scenario
+
+#: Estimates beyond this many tolerances at the end count as diverged.
+DIVERGED_TOLERANCES = 1e3
+
+
+@dataclass(frozen=True)
+class ToleranceModel:
+    """Nominal part (a preset with optional overrides) and the fabrication scatter.
+
+    spread: relative spread per parameter (a name missing from it does not scatter);
+    uniform: value = nominal * (1 + spread * U(-1, 1)); normal: nominal * (1 + spread *
+    N(0, 1)). Where the nominal is 0 the spread is absolute (value = spread * U or N).
+    """
+
+    preset: str = "park-horowitz"
+    overrides: Mapping[str, float] = field(default_factory=dict)
+    spread: Mapping[str, float] = field(
+        default_factory=lambda: dict.fromkeys(PARAMETER_NAMES, 0.10))
+    distribution: Literal["uniform", "normal"] = "uniform"
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        unknown = sorted(set(self.spread) - set(PARAMETER_NAMES))
+        if unknown:
+            raise ParameterError(
+                f"unknown parameter(s) {unknown} in spread: {list(PARAMETER_NAMES)}")
+        if self.distribution not in ("uniform", "normal"):
+            raise ParameterError(f"distribution must be 'uniform' or 'normal', not "
+                             f"{self.distribution!r}")
+        bad = {k: v for k, v in self.spread.items() if not (math.isfinite(v) and v >= 0)}
+        if bad:
+            raise ParameterError(f"spreads must be finite and >= 0: {bad}")
+
+    @property
+    def nominal(self) -> dict[str, float]:
+        return preset(self.preset, **self.overrides).as_dict()
+
+    def draw(self, n: int) -> list[dict[str, float]]:
+        """n parameter sets, reproducible from the seed (same seed, same first n draws)."""
+        rng = np.random.default_rng(self.seed)
+        nominal = self.nominal
+        shape = (n, len(PARAMETER_NAMES))
+        unit = rng.uniform(-1.0, 1.0, shape) if self.distribution == "uniform" \
+            else rng.standard_normal(shape)
+        out = []
+        for row in unit:
+            d = {}
+            for j, name in enumerate(PARAMETER_NAMES):
+                s, v = self.spread.get(name, 0.0), nominal[name]
+                d[name] = float(v * (1.0 + s * row[j]) if v != 0.0 else s * row[j])
+            out.append(d)
+        return out
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """What every gyro of the sweep runs: the base scenario and the deadline."""
+
+    tolerances: ToleranceModel = field(default_factory=ToleranceModel)
+    n: int = 200
+    noise: float = 1e-5  #: of each signal's peak
+    Omega_z: float = 1.0  #: constant rate, rad/s
+    stop_time: float = 0.08  #: s
+    deadline: float | None = None  #: s; None: stop_time
+    step: float = 5e-6
+    measured_pair: int = 1
+    noise_seed: int = 1000  #: gyro i gets noise seed noise_seed + i
+    tuning: Mapping[str, float] = field(default_factory=dict)
+
+    def base_scenario(self) -> Scenario:
+        from .rate import RateKind, RateProfile
+
+        return scenario(
+            "default", preset=self.tolerances.preset, stop_time=self.stop_time, step=self.step,
+            noise=self.noise, measured_pair=self.measured_pair, tuning=dict(self.tuning),
+            rate=RateProfile(RateKind.constant, offset=self.Omega_z))
+
+    def scenario_for(self, i: int, drawn: Mapping[str, float]) -> Scenario:
+        return self.base_scenario().with_(
+            overrides={**self.tolerances.overrides, **drawn},
+            initial=self.tolerances.nominal, seed=self.noise_seed + i)
+
+
+def run_gyro(i: int, drawn: Mapping[str, float], spec: SweepSpec, models_dir: str) -> dict:
+    """One gyroscope through the FMUs; always returns a row (status ok or failed)."""
+    row: dict = {"gyro": i, "status": "failed", "reason": "",
+                 **{f"true_{k}": float(v) for k, v in drawn.items()}}
+    start = time.perf_counter()
+    try:
+        from .parameters import validate_for_plant
+        from .run import run_fmus
+
+        sc = spec.scenario_for(i, drawn)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            validate_for_plant(sc.params)
+            result = run_fmus(sc, Path(models_dir))
+        row["warnings"] = " | ".join(str(w.message) for w in caught)
+        row.update(_reduce(sc, result, spec))
+    except Exception as exc:  # recorded, never raised: the sweep goes on
+        row["reason"] = f"{type(exc).__name__}: {exc}".replace("\n", " ")[:500]
+    row["wall_s"] = time.perf_counter() - start
+    return row
+
+
+def _reduce(sc: Scenario, result, spec: SweepSpec) -> dict:
+    from .run import estimate_column
+
+    t = result["time"]
+    deadline = spec.stop_time if spec.deadline is None else spec.deadline
+    k_dead = int(np.argmin(np.abs(t - deadline)))
+    truth = sc.params
+    out: dict = {}
+    conv_all: float | None = 0.0
+    within_all = True
+    worst = 0.0
+    for name in ESTIMATED:
+        true_series = result["rate.Omega_z"] if name == "Omega_z" else \
+            np.full(t.shape, getattr(truth, name))
+        est = result[estimate_column(name)]
+        err = est - true_series
+        tol = tolerance(name, true_series)
+        if not np.all(np.isfinite(est)):
+            return {"status": "failed", "reason": f"NaN/inf in the estimate of {name}"}
+        conv = convergence_time(t, err, tol)
+        within = bool(abs(err[k_dead]) <= tol)
+        worst = max(worst, abs(err[-1]) / tol)
+        out[f"est_{name}"] = float(est[-1])
+        out[f"err_{name}"] = float(err[-1])
+        out[f"err_over_tol_{name}"] = float(abs(err[-1]) / tol)
+        out[f"sigma_{name}"] = float(result[f"observer.sigma_{name}"][-1])
+        out[f"conv_s_{name}"] = conv
+        within_all &= within
+        conv_all = None if conv is None or conv_all is None else max(conv_all, conv)
+    if not np.all(np.isfinite(result.data)):
+        return {**out, "status": "failed", "reason": "NaN/inf in the co-simulation outputs"}
+    if worst > DIVERGED_TOLERANCES:
+        return {**out, "status": "failed",
+                "reason": f"diverged: final error {worst:.3g} tolerances"}
+    out.update(status="ok", reason="", within_at_deadline=within_all, conv_s_all=conv_all)
+    return out
+
+
+# --------------------------------------------------------------------------- driver
+
+
+@dataclass
+class SweepResult:
+    rows: list[dict]
+    spec: SweepSpec
+    wall_s: float
+    n_workers: int
+
+    @property
+    def ok(self) -> list[dict]:
+        return [r for r in self.rows if r["status"] == "ok"]
+
+    @property
+    def failed(self) -> list[dict]:
+        return [r for r in self.rows if r["status"] != "ok"]
+
+    def fraction_within(self) -> float:
+        """Fraction of ALL gyros (failed ones count as not converged) within tol at deadline."""
+        return sum(bool(r.get("within_at_deadline")) for r in self.rows) / max(1, len(self.rows))
+
+    def throughput_per_min(self) -> float:
+        return 60.0 * len(self.rows) / self.wall_s if self.wall_s > 0 else math.nan
+
+    def summary(self) -> dict:
+        ok = self.ok
+        conv = [r["conv_s_all"] for r in ok if r.get("conv_s_all") is not None]
+        per = {}
+        for name in ESTIMATED:
+            e = [r[f"err_over_tol_{name}"] for r in ok]
+            per[name] = {"p50_err_over_tol": _pct(e, 50), "p95_err_over_tol": _pct(e, 95),
+                         "max_err_over_tol": max(e) if e else None,
+                         "fraction_within": (sum(v <= 1 for v in e) / len(self.rows))
+                         if self.rows else None}
+        return {
+            "n": len(self.rows), "ok": len(ok), "failed": len(self.failed),
+            "fraction_all_within_at_deadline": self.fraction_within(),
+            "deadline_s": self.spec.deadline or self.spec.stop_time,
+            "convergence_time_s": {"p50": _pct(conv, 50), "p95": _pct(conv, 95),
+                                   "never": len(ok) - len(conv)},
+            "per_unknown": per,
+            "wall_s": self.wall_s, "n_workers": self.n_workers,
+            "gyros_per_minute": self.throughput_per_min(),
+            "failures": [{"gyro": r["gyro"], "reason": r["reason"]} for r in self.failed],
+            "spec": _spec_dict(self.spec),
+        }
+
+
+def _pct(values: Sequence[float], q: float) -> float | None:
+    return float(np.percentile(values, q)) if len(values) else None
+
+
+def _spec_dict(spec: SweepSpec) -> dict:
+    d = asdict(spec)
+    d["tolerances"]["nominal"] = spec.tolerances.nominal
+    return json.loads(json.dumps(d, default=str))
+
+
+class _Progress:
+    """One status line on stderr: done/total, failed, rate and ETA (no extra dependency)."""
+
+    def __init__(self, total: int, stream=sys.stderr, width: int = 30) -> None:
+        self.total, self.stream, self.width = total, stream, width
+        self.done = self.failed = 0
+        self.start = time.perf_counter()
+        self._tty = getattr(stream, "isatty", lambda: False)()
+        self._last = -math.inf
+
+    def update(self, failed: bool) -> None:
+        self.done += 1
+        self.failed += int(failed)
+        now = time.perf_counter()
+        if not self._tty and now - self._last < 5.0 and self.done < self.total:
+            return  # in a log file: one line per 5 s
+        self._last = now
+        elapsed = now - self.start
+        eta = elapsed / self.done * (self.total - self.done)
+        fill = round(self.width * self.done / self.total)
+        line = (f"[{'#' * fill}{'.' * (self.width - fill)}] {self.done}/{self.total} done, "
+                f"{self.failed} failed, {elapsed:.0f} s elapsed, ETA {_hms(eta)}")
+        self.stream.write(("\r" + line) if self._tty else line + "\n")
+        if self._tty and self.done == self.total:
+            self.stream.write("\n")
+        self.stream.flush()
+
+
+def _hms(s: float) -> str:
+    s = round(s)
+    return f"{s // 60}m{s % 60:02d}s" if s >= 60 else f"{s}s"
+
+
+def run_sweep(
+    spec: SweepSpec,
+    models_dir: Path,
+    scheduler: str | None = None,
+    n_workers: int | None = None,
+    draws: Sequence[Mapping[str, float]] | None = None,
+    progress: bool = True,
+    on_row: Callable[[dict], None] | None = None,
+) -> SweepResult:
+    """Run the sweep on Dask and return every row (ok or failed), in gyro order.
+
+    scheduler: address of an existing Dask scheduler; None starts a LocalCluster with
+    n_workers single-threaded worker processes (default: all cores).
+    draws: explicit parameter sets instead of spec.tolerances.draw(spec.n).
+    """
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    from .run import ensure_fmus
+
+    models = Path(models_dir).resolve()
+    ensure_fmus(models)
+    draws = list(draws) if draws is not None else spec.tolerances.draw(spec.n)
+    cluster = None
+    if scheduler is None:
+        n_workers = n_workers or os.cpu_count() or 1
+        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+        client = Client(cluster)
+    else:
+        client = Client(scheduler)
+    try:
+        n_workers = len(client.scheduler_info().get("workers", {})) or (n_workers or 1)
+        start = time.perf_counter()
+        futures = {client.submit(run_gyro, i, d, spec, str(models), pure=False): i
+                   for i, d in enumerate(draws)}
+        bar = _Progress(len(futures)) if progress else None
+        rows: dict[int, dict] = {}
+        for fut in as_completed(futures):
+            i = futures[fut]
+            try:
+                row = fut.result()
+            except Exception as exc:  # worker died, task lost: still a row
+                row = {"gyro": i, "status": "failed",
+                       "reason": f"task error {type(exc).__name__}: {exc}"[:500],
+                       **{f"true_{k}": float(v) for k, v in draws[i].items()}}
+            rows[i] = row
+            if on_row:
+                on_row(row)
+            if bar:
+                bar.update(row["status"] != "ok")
+        wall = time.perf_counter() - start
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    return SweepResult([rows[i] for i in sorted(rows)], spec, wall, n_workers)
+
+
+# --------------------------------------------------------------------------- outputs
+
+
+def write_outputs(res: SweepResult, out_dir: Path, figures: bool = True) -> list[Path]:
+    """sweep.csv (every run), sweep.parquet (if pyarrow is installed), summary.json, PNGs."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    columns: list[str] = []
+    for r in res.rows:
+        columns += [c for c in r if c not in columns]
+    paths = [out / "sweep.csv"]
+    with paths[0].open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=columns)
+        w.writeheader()
+        for r in res.rows:
+            w.writerow({c: "" if r.get(c) is None else r.get(c) for c in columns})
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        table = pa.Table.from_pylist([{c: r.get(c) for c in columns} for r in res.rows])
+        pq.write_table(table, out / "sweep.parquet")
+        paths.append(out / "sweep.parquet")
+    except ImportError:
+        pass
+    (out / "summary.json").write_text(json.dumps(res.summary(), indent=2))
+    paths.append(out / "summary.json")
+    if figures:
+        paths.append(histograms(res, out / "sweep_histograms.png"))
+    return paths
+
+
+def histograms(res: SweepResult, path: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ok = res.ok
+    fig, axes = plt.subplots(3, 4, figsize=(14, 9))
+    ax = axes[0, 0]
+    conv = [r["conv_s_all"] * 1e3 for r in ok if r.get("conv_s_all") is not None]
+    ax.hist(conv, bins=30, color="C0")
+    dl = (res.spec.deadline or res.spec.stop_time) * 1e3
+    ax.axvline(dl, color="k", ls="--", lw=1, label=f"deadline {dl:g} ms")
+    ax.set_xlabel("time all 8 within tolerance (ms)")
+    ax.set_ylabel("gyros")
+    ax.set_title(f"{len(conv)}/{len(res.rows)} converged")
+    ax.legend(fontsize=8)
+    for j, name in enumerate(ESTIMATED):
+        ax = axes.flat[1 + j]
+        v = np.array([r[f"err_over_tol_{name}"] for r in ok])
+        v = np.clip(v, 1e-6, None)
+        bins = np.logspace(math.log10(v.min()), math.log10(max(v.max(), 1.01)), 30) \
+            if v.size else 10
+        ax.hist(v, bins=bins, color="C1")
+        ax.set_xscale("log")
+        ax.axvline(1.0, color="k", ls="--", lw=1)
+        ax.set_xlabel(f"|error {name}| / tolerance at end")
+        ax.set_ylabel("gyros")
+    ax = axes.flat[9]
+    wall = [r["wall_s"] for r in res.rows]
+    ax.hist(wall, bins=20, color="C2")
+    ax.set_xlabel("wall time per gyro (s)")
+    ax.set_ylabel("gyros")
+    for a in axes.flat[10:]:
+        a.axis("off")
+    axes.flat[10].text(0, 0.5, f"{res.summary()['fraction_all_within_at_deadline']:.1%} all "
+                       f"within 1% at {dl:g} ms\n{len(res.failed)} failed\n"
+                       f"{res.throughput_per_min():.1f} gyros/min on {res.n_workers} workers",
+                       fontsize=11, va="center")
+    fig.suptitle(f"Monte Carlo over fabrication tolerances: {len(res.rows)} gyros, "
+                 f"{res.spec.tolerances.preset}, {res.spec.tolerances.distribution}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)
