@@ -174,10 +174,14 @@ def absolute_noise(sc: Scenario, states: np.ndarray | None = None) -> Measuremen
     return MeasurementNoise(*(float(sc.noise * p) for p in peaks))
 
 
-#: q_Omega (rad^2/s^5) for a rate that is constant in time: the default 1e9 is sized for
-#: the patent's 100 Hz sine and wastes information on a constant rate (its sigmas then
-#: come out 3x too pessimistic at noise 1e-4; benchmarks/OBSERVER_NOTES.md).
-Q_OMEGA_CONSTANT_RATE = 1e2
+#: Rate model for a rate declared constant: a random walk of zero intensity, i.e. exactly
+#: the constant the Cramer-Rao bound assumes. The default (integrated random walk,
+#: q_Omega 1e9) is sized for the patent's 100 Hz sine; on a constant rate it threw
+#: information away: Omega errors 2-10x the bound at noise 1e-6..1e-4, against
+#: 0.66-1.04x with this model (benchmarks/observer_efficiency.py, 8-16 seeds). The
+#: price: the observer then does not follow rate changes, which the user ruled out.
+Q_OMEGA_CONSTANT_RATE = 0.0
+OMEGA_ORDER_CONSTANT_RATE = 1
 
 
 def observer_tuning(sc: Scenario, noise: MeasurementNoise) -> dict[str, float]:
@@ -185,7 +189,7 @@ def observer_tuning(sc: Scenario, noise: MeasurementNoise) -> dict[str, float]:
 
     The observer is told the pick-off noise of the pair it measures (absolute stds,
     as a designer knows them from the electronics) and a rate bandwidth that suits
-    the rate profile: a constant rate gets Q_OMEGA_CONSTANT_RATE.
+    the rate profile: a constant rate is modelled as exactly constant.
     """
     tuning: dict[str, float] = {}
     if not noise.is_off:
@@ -193,6 +197,7 @@ def observer_tuning(sc: Scenario, noise: MeasurementNoise) -> dict[str, float]:
         tuning["sigma_z1"], tuning["sigma_z2"] = getattr(noise, z1), getattr(noise, z2)
     if sc.rate.kind is RateKind.constant:
         tuning["q_Omega"] = Q_OMEGA_CONSTANT_RATE
+        tuning["omega_order"] = OMEGA_ORDER_CONSTANT_RATE
     return {**tuning, **dict(sc.tuning)}
 
 

@@ -78,9 +78,11 @@ def test_the_container_runs_like_the_master(container, models_dir):
     assert len(rel) == len(ref.columns) - 1  # every output of every FMU is there
     assert max(rel.values()) <= 1e-12, sorted(rel.items(), key=lambda kv: -kv[1])[:3]
     # Its defaults are the FMUs' defaults: the default scenario, except the observer's
-    # q_Omega, which the scenario lowers for its constant rate (scenario.observer_tuning).
+    # rate model, which the scenario makes constant for its constant rate
+    # (scenario.observer_tuning).
     default = simulate(container)
-    fmu_defaults = scenario(stop_time=STOP, tuning={"q_Omega": ObserverTuning().q_Omega})
+    fmu_defaults = scenario(stop_time=STOP, tuning={"q_Omega": ObserverTuning().q_Omega,
+                                                      "omega_order": ObserverTuning().omega_order})
     rel = max_relative(default, run_fmus(fmu_defaults, models_dir), names)
     assert max(rel.values()) <= 1e-12
 
