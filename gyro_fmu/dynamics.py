@@ -30,6 +30,18 @@ def state_scaling(p: GyroParameters) -> np.ndarray:
 
 
 @njit(cache=True)
+def inf_norm_rows(M, rows, cols):  # pragma: no cover
+    """Infinity norm of the block M[:rows, :cols] (max absolute row sum)."""
+    norm = 0.0
+    for i in range(rows):
+        r = 0.0
+        for j in range(cols):
+            r += abs(M[i, j])
+        norm = max(norm, r)
+    return norm
+
+
+@njit(cache=True)
 def _expm_held(M, E):  # pragma: no cover
     """Top 4 rows E of expm([[M], [0]]) for the 4x6 top block M of a Van Loan matrix.
 
@@ -38,12 +50,7 @@ def _expm_held(M, E):  # pragma: no cover
     power are zero, so each term costs a 4x4 by 4x6 product; scaling by a power of
     two is exact and the series converges like 0.5^K / K!.
     """
-    norm = 0.0
-    for i in range(4):
-        r = 0.0
-        for j in range(6):
-            r += abs(M[i, j])
-        norm = max(norm, r)
+    norm = inf_norm_rows(M, 4, 6)
     s = 0
     scale = 1.0
     while norm * scale > 0.5:

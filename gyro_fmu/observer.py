@@ -55,6 +55,7 @@ from dataclasses import asdict, dataclass, fields
 import numpy as np
 from numba import njit
 
+from .dynamics import inf_norm_rows
 from .parameters import GyroParameters, check_parameters
 
 _N_PAR = 7  # kxx, kyy, kxy, dxx, dyy, dxy, b = 1/m
@@ -91,12 +92,7 @@ def _n_terms(norm: float) -> int:
 @njit(cache=True)
 def _held_step_single(xi0, Ah, h, MgT, beta, st, G, Gb, s1, Phi, S):  # pragma: no cover
     """Taylor powers st[j] = (A h)^j / j!, their sum, and the Frechet series S (see _held_step)."""
-    norm = 0.0
-    for i in range(4):
-        r = 0.0
-        for c in range(5):
-            r += abs(Ah[i, c])
-        norm = max(norm, r)
+    norm = inf_norm_rows(Ah, 4, 5)
     K = _n_terms(norm)
     for j in range(K - 1):
         inv = 1.0 / (j + 1)
@@ -146,12 +142,7 @@ def _held_step_single(xi0, Ah, h, MgT, beta, st, G, Gb, s1, Phi, S):  # pragma: 
 @njit(cache=True)
 def _held_step_kernel(xi0, Ah, h, MgT, beta, st, G, Gb, s1, Phi, S):  # pragma: no cover
     """s1 = s(t+h), Phi = ds1/ds, S = ds1/d(p, Omega); long steps in equal sub-steps."""
-    norm = 0.0
-    for i in range(4):
-        r = 0.0
-        for c in range(5):
-            r += abs(Ah[i, c])
-        norm = max(norm, r)
+    norm = inf_norm_rows(Ah, 4, 5)
     if norm <= _STEP_NORM:
         _held_step_single(xi0, Ah, h, MgT, beta, st, G, Gb, s1, Phi, S)
         return
