@@ -131,6 +131,9 @@ class GyroSlave(Fmi2Slave):
         }
         self._getters: dict[tuple[int, ...], Any] = {}
         if self.resources:  # inside an FMU: defuse pythonfmu 0.7.0's exit-time double free
+            mismatch = host_library_mismatch(Path(self.resources))
+            if mismatch:
+                self.log(f"{self.modelName}: {mismatch}", Fmi2Status.warning)
             from . import pythonfmu_exit
 
             binary = Path(self.resources).parent / "binaries" / "linux64" / f"{self.modelName}.so"
@@ -344,6 +347,30 @@ class GyroSlave(Fmi2Slave):
                 unknown.set("dependencies", "")
                 SubElement(initial, "Unknown", index=unknown.get("index"))
         return root
+
+
+def host_library_mismatch(resources: Path) -> str | None:
+    """Why the gyro_fmu running this FMU is not the one it ships, or None.
+
+    Python caches modules per process: in a host that already imported gyro_fmu (our
+    fmpy master, a user's script), every FMU runs the host's copy, not its own. Same
+    version, same code; another version is a silent substitution worth a warning.
+    """
+    import re
+
+    from . import __file__ as running_file
+    from . import __version__ as running
+
+    shipped = resources / "gyro_fmu" / "__init__.py"
+    if not shipped.is_file() or Path(running_file).resolve() == shipped.resolve():
+        return None
+    match = re.search(r'__version__ = "([^"]+)"', shipped.read_text())
+    if match is None or match.group(1) == running:
+        return None
+    return (f"this FMU ships gyro_fmu {match.group(1)}, but the host process had already "
+            f"imported gyro_fmu {running} ({Path(running_file).parent}), which runs instead "
+            f"(Python caches modules per process): install gyro_fmu {match.group(1)} in "
+            f"the host, or rebuild the FMUs with {running}")
 
 
 def spec_is_parameter(slave: GyroSlave, vr: int) -> bool:

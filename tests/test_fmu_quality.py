@@ -174,3 +174,22 @@ def test_many_instances_in_one_process_are_independent(models_dir):
     assert abs(kxy[0] - p1.kxy) < 0.01 * p1.kxy and abs(kxy[1] - p2.kxy) < 0.01 * p2.kxy
     for inst in plants + observers:
         inst.close()
+
+
+def test_a_different_gyro_fmu_in_the_host_is_reported(models_dir, monkeypatch):
+    """The host's gyro_fmu runs inside our FMUs (one module cache per process): when its
+    version differs from the one the FMU ships, the FMU says so in its log."""
+    import gyro_fmu
+
+    shipped = gyro_fmu.__version__
+    same = Instance(models_dir / "TwoToneDrive.fmu", "same")
+    assert "ships gyro_fmu" not in same.messages()
+    same.close()
+    monkeypatch.setattr(gyro_fmu, "__version__", "0.0.0-host")
+    other = Instance(models_dir / "TwoToneDrive.fmu", "other")
+    text = other.messages()
+    assert f"ships gyro_fmu {shipped}, but the host process had already imported gyro_fmu " \
+           "0.0.0-host" in text
+    assert "rebuild the FMUs" in text
+    assert other.step(H) == 0  # a warning, not a failure
+    other.close()
