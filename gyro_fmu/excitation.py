@@ -38,7 +38,7 @@ from typing import Literal
 import numpy as np
 
 from .drive import TwoToneDrive
-from .metrics import RELATIVE_TOLERANCE, ZERO_DAMPING_TOLERANCE
+from .metrics import tolerance
 from .observability import UNKNOWN_NAMES, window_jacobian
 from .parameters import GyroParameters, ParameterError
 
@@ -46,14 +46,9 @@ NoiseKind = Literal["relative", "absolute"]
 
 
 def tolerances(params: GyroParameters, Omega_z: float) -> np.ndarray:
-    """The metrics tolerance of each unknown (1%; 0.1 1/s for a zero damping)."""
-    values = np.array([Omega_z, params.kxx, params.kyy, params.kxy, params.dxx, params.dyy,
-                       params.dxy, params.m])
-    tol = RELATIVE_TOLERANCE * np.abs(values)
-    tol[0] = tol[0] or RELATIVE_TOLERANCE
-    for i in (4, 5, 6):
-        tol[i] = tol[i] or ZERO_DAMPING_TOLERANCE
-    return tol
+    """The metrics tolerance of each unknown, in UNKNOWN_NAMES order (metrics.tolerance)."""
+    values = {"Omega_z": Omega_z, **params.as_dict()}
+    return np.array([tolerance(n, np.array([values[n]])) for n in UNKNOWN_NAMES])
 
 
 def _crb_from_fisher(F: np.ndarray, scales: np.ndarray) -> np.ndarray:
