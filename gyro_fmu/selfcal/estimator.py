@@ -1,0 +1,185 @@
+"""The frequency-domain estimator of US 9,482,553 (eqs. 15-19) and the rate read-out (eq. 8).
+
+In each mode the drive phasors D = (Vx, Vy) and the feed-forward-corrected pick-off
+phasors PO = (Vpx, Vpy) at the carrier and its sidebands obey PO = H(omega) D, with
+
+    H(omega) = diag(1, rho) M(omega)^-1 B zoh(omega) + E_res exp(-i omega h)
+    M(omega) = K - omega^2 I + i omega (D + 2 kappa Omega_z J),  J = [[0, -1], [1, 0]]
+
+(eq. 1 in the frequency domain). rho = relative pick-off gain and phase (measured with
+the ring excitation, eq. 4's relative angle), B = forcer gains and misalignments times
+the x pick-off gain (complex: electronics phases), zoh = the hold's transfer, E_res =
+feed-through left after the correction. The fit minimises J of eq. 19,
+sum over modes and frequencies of |PO_measured - H D_measured|^2, with
+scipy.optimize.least_squares; stiffnesses enter as the mode frequencies.
+
+The rate read-out then follows from the fitted H alone: with the primary pick-off held
+at amplitude A on the reference phase and the secondary nulled, the rebalance command
+is u = A (H^-1)_21 exp(-i omega h / 2) and the rate output is Im(u) (eq. 8), affine in
+Omega_z: its slope is the scale factor, its value at zero the bias. The Bryant factor
+kappa is the one number taken from the factory (seed: assumed constant after it).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+#: Names of the fitted parameters, in vector order (SI: rad/s, 1/s, V/V).
+CORE = ("dw_x", "dw_y", "dxx", "dyy", "dxy", "kxy_over_w", "Omega_z")
+FORCER = ("B_xx", "B_xy", "B_yx", "B_yy")
+RESIDUAL_FEEDTHROUGH = ("E_xx", "E_xy", "E_yx", "E_yy")
+
+
+@dataclass
+class ModeData:
+    """Phasors of one mode's sideband record."""
+
+    mode: int
+    omega: np.ndarray  #: rad/s, absolute frequency of each phasor
+    D: np.ndarray  #: (n, 2) complex drive phasors (Vx, Vy), V
+    PO: np.ndarray  #: (n, 2) complex corrected pick-off phasors (Vpx, Vpy), V
+    omega_osc: float  #: rad/s, mean oscillation frequency
+    amplitude: float  #: V, primary pick-off amplitude
+
+
+@dataclass
+class SidebandFit:
+    """The fitted model and its uncertainty."""
+
+    x: np.ndarray
+    cov: np.ndarray
+    omega_ref: float
+    rho: complex
+    kappa: float
+    h: float
+    fit_feedthrough: bool
+    rms_residual: float
+    names: tuple[str, ...] = field(default=())
+
+    def sigma(self) -> np.ndarray:
+        return np.sqrt(np.clip(np.diag(self.cov), 0.0, None))
+
+    def physical(self) -> dict[str, float]:
+        """Mode frequencies (Hz), dampings (1/s), kxy (1/s^2), Omega_z (rad/s)."""
+        x, s = self.x, self.sigma()
+        w = self.omega_ref
+        out = {
+            "f_x": (w + x[0]) / (2 * math.pi), "f_y": (w + x[1]) / (2 * math.pi),
+            "dxx": x[2], "dyy": x[3], "dxy": x[4], "kxy": x[5] * w, "Omega_z": x[6],
+        }
+        sig = {"f_x": s[0] / (2 * math.pi), "f_y": s[1] / (2 * math.pi), "dxx": s[2],
+               "dyy": s[3], "dxy": s[4], "kxy": s[5] * w, "Omega_z": s[6]}
+        return {**out, **{f"sigma_{k}": v for k, v in sig.items()}}
+
+
+def zoh(omega: np.ndarray, h: float) -> np.ndarray:
+    """Transfer of a held sample to the fundamental, relative to the hold's start."""
+    x = omega * h
+    return (1.0 - np.exp(-1j * x)) / (1j * x)
+
+
+def _complex4(v: np.ndarray) -> np.ndarray:
+    return (v[0::2] + 1j * v[1::2]).reshape(2, 2)
+
+
+def transfer(x: np.ndarray, omega: np.ndarray, omega_ref: float, rho: complex, kappa: float,
+             h: float, fit_feedthrough: bool, Omega_z: float | None = None) -> np.ndarray:
+    """H(omega) (n x 2 x 2) for parameter vector x; Omega_z overrides the fitted rate."""
+    wx, wy = omega_ref + x[0], omega_ref + x[1]
+    dxx, dyy, dxy, kxy = x[2], x[3], x[4], x[5] * omega_ref
+    Om = x[6] if Omega_z is None else Omega_z
+    B = _complex4(x[7:15]) * (2 * omega_ref)
+    iw = 1j * omega
+    M = np.empty((len(omega), 2, 2), complex)
+    M[:, 0, 0] = (wx - omega) * (wx + omega) + iw * dxx
+    M[:, 1, 1] = (wy - omega) * (wy + omega) + iw * dyy
+    M[:, 0, 1] = kxy + iw * (dxy - 2 * kappa * Om)
+    M[:, 1, 0] = kxy + iw * (dxy + 2 * kappa * Om)
+    G = np.linalg.solve(M, np.broadcast_to(B, M.shape)) * zoh(omega, h)[:, None, None]
+    G[:, 1, :] *= rho
+    if fit_feedthrough:
+        E = _complex4(x[15:23]) * 1e-3
+        G += E[None] * np.exp(-1j * omega * h)[:, None, None]
+    return G
+
+
+def _residuals(x, modes, omega_ref, rho, kappa, h, fit_ff):
+    out = []
+    for md in modes:
+        H = transfer(x, md.omega, omega_ref, rho, kappa, h, fit_ff)
+        r = md.PO - np.einsum("nij,nj->ni", H, md.D)
+        out.append(r.ravel())
+    r = np.concatenate(out)
+    return np.concatenate([r.real, r.imag])
+
+
+def initial_guess(modes: list[ModeData], plant_gain: float, q_nominal: float,
+                  fit_feedthrough: bool) -> tuple[float, np.ndarray]:
+    """Rough start (seed: dampings and forcer gains, the rest zero): each mode's
+    frequency from its oscillation, dampings from the nominal Q, B diagonal from the
+    nominal P B / (2 omega)."""
+    by_mode = {md.mode: md for md in modes}
+    w1 = by_mode[1].omega_osc if 1 in by_mode else modes[0].omega_osc
+    w2 = by_mode[2].omega_osc if 2 in by_mode else w1
+    d = w1 / q_nominal
+    x = np.zeros(23 if fit_feedthrough else 15)
+    x[0], x[1], x[2], x[3] = 0.0, w2 - w1, d, d
+    x[7] = x[13] = plant_gain
+    return w1, x
+
+
+def fit_sidebands(modes: list[ModeData], rho: complex, kappa: float, h: float,
+                  plant_gain: float, q_nominal: float,
+                  fit_feedthrough: bool = True) -> SidebandFit:
+    """Minimise eq. 19 over the parameters; covariance from the Jacobian at the optimum."""
+    omega_ref, x0 = initial_guess(modes, plant_gain, q_nominal, fit_feedthrough)
+    args = (modes, omega_ref, rho, kappa, h, fit_feedthrough)
+    res = least_squares(_residuals, x0, args=args, method="lm", x_scale="jac",
+                        xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=20000)
+    n, p = res.fun.size, res.x.size
+    s2 = float(res.fun @ res.fun) / max(n - p, 1)
+    J = res.jac
+    cov = s2 * np.linalg.pinv(J.T @ J)
+    names = CORE + FORCER + (RESIDUAL_FEEDTHROUGH if fit_feedthrough else ())
+    return SidebandFit(res.x, cov, omega_ref, rho, kappa, h, fit_feedthrough,
+                       math.sqrt(s2), names)
+
+
+def closed_loop_rate(fit: SidebandFit, x: np.ndarray, Omega_z: float, omega_r: float,
+                     amplitude: float) -> float:
+    """Rate output Im(u) of mode 1 (x oscillates at omega_r, y rebalanced), eq. 8."""
+    H = transfer(x, np.array([omega_r]), fit.omega_ref, fit.rho, fit.kappa, fit.h,
+                 fit.fit_feedthrough, Omega_z=Omega_z)[0]
+    u = amplitude * np.linalg.inv(H)[1, 0] * np.exp(-0.5j * omega_r * fit.h)
+    return float(u.imag)
+
+
+def bias_and_scale_factor(fit: SidebandFit, omega_r: float, amplitude: float,
+                          x: np.ndarray | None = None) -> tuple[float, float]:
+    """(bias rad/s, scale factor V/(rad/s)) of the mode-1 rate output: out = SF (Omega + bias)."""
+    x = fit.x if x is None else x
+    d = 0.01
+    up = closed_loop_rate(fit, x, d, omega_r, amplitude)
+    down = closed_loop_rate(fit, x, -d, omega_r, amplitude)
+    zero = closed_loop_rate(fit, x, 0.0, omega_r, amplitude)
+    sf = (up - down) / (2 * d)
+    return zero / sf, sf
+
+
+def bias_and_scale_factor_sigma(fit: SidebandFit, omega_r: float,
+                                amplitude: float) -> tuple[float, float]:
+    """1-sigma of bias and scale factor from the fit's covariance (delta method)."""
+    base = np.array(bias_and_scale_factor(fit, omega_r, amplitude))
+    grads = np.zeros((2, fit.x.size))
+    sig = fit.sigma()
+    for i in range(fit.x.size):
+        step = sig[i] * 1e-3 if sig[i] > 0 else 1e-12
+        x = fit.x.copy()
+        x[i] += step
+        grads[:, i] = (np.array(bias_and_scale_factor(fit, omega_r, amplitude, x)) - base) / step
+    cov = grads @ fit.cov @ grads.T
+    return math.sqrt(max(cov[0, 0], 0.0)), math.sqrt(max(cov[1, 1], 0.0))

@@ -1,0 +1,200 @@
+"""The calibration sequence of US 9,482,553 (its flow diagram), run at carrier level.
+
+1. loops off: off-resonant tones on Vx, Vy and the ring; the feed-forward terms E
+   and the relative pick-off gain and phase rho follow from least-squares phasors;
+2. x oscillator, y rebalanced, sidebands on: settle, record;
+3. modes reversed (y oscillator, x rebalanced): settle, record;
+4. demodulate at the sideband frequencies, fit eq. 19 (estimator.py), compute cross
+   damping, cross stiffness, the background rate, bias and scale factor.
+
+The loops use the measured E in every closed-loop step, as the instrument would.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass, field, replace
+
+import numpy as np
+
+from .carrier import DEFAULT_STEP, CarrierRecord, CarrierSimulation
+from .estimator import (
+    ModeData,
+    SidebandFit,
+    bias_and_scale_factor,
+    bias_and_scale_factor_sigma,
+    fit_sidebands,
+)
+from .loops import LoopSettings
+from .phasors import phasors
+from .resonator import ResonatorParameters
+
+
+@dataclass(frozen=True)
+class SelfCalConfig:
+    """Record lengths and excitation of one calibration."""
+
+    step: float = DEFAULT_STEP  #: s, communication step
+    ff_duration: float = 0.4  #: s, loops-off record (whole periods of 10 Hz)
+    settle: float = 8.0  #: s, before each sideband record (5 ring-down times)
+    record: float = 10.0  #: s, each sideband record (whole periods of the spacing)
+    sideband_index: float = 0.02  #: modulation index per tone
+    sideband_spacing: float = 0.2  #: Hz (two Hann bins of a 10 s record)
+    sideband_count: int = 7  #: tones at 1..count times the spacing (0.2..1.4 Hz)
+    Omega_z: float = 0.0  #: rad/s, background rate during calibration (earth rate)
+    seed: int = 1
+    ring_amplitude: float = 1.0  #: V, each ring tone of step 1
+    ring_offset: float = 260.0  #: Hz, ring tones at f_nominal -/+ this
+    fit_feedthrough: bool = True  #: fit the feed-through left after the correction
+    loops: LoopSettings = field(default_factory=LoopSettings)
+
+    def as_dict(self) -> dict:
+        d = asdict(self)
+        d["loops"] = self.loops.as_dict()
+        return d
+
+
+@dataclass
+class FeedForward:
+    """Step 1's result: feed-through (V/V) and relative pick-off gain rho = Py/Px."""
+
+    E: np.ndarray
+    rho: complex
+    imag_E: np.ndarray  #: imaginary parts left after the delay (quality check)
+
+
+def measure_feedforward(res: ResonatorParameters, cfg: SelfCalConfig) -> FeedForward:
+    """Loops off: E from the drive tones, rho from the ring tones (both -/+ offsets)."""
+    lo = replace(cfg.loops, mode=0)
+    h = cfg.step
+    f0 = lo.f_nominal
+    res = replace(res, ring_amplitude=cfg.ring_amplitude,
+                  ring_frequency_1=f0 - cfg.ring_offset, ring_frequency_2=f0 + cfg.ring_offset)
+    sim = CarrierSimulation(res, lo, seed=cfg.seed, step=h, Omega_z=cfg.Omega_z)
+    rec = sim.run(cfg.ff_duration + 0.1, record_from=0.1)
+    t0, data = rec.time[0], rec.data[:-1]
+    cols = CarrierRecord(data, h)
+    w0 = 2 * math.pi * lo.f_nominal
+    offs = {"x": lo.excitation_offset_x, "y": lo.excitation_offset_y, "ring": cfg.ring_offset}
+    grid = 10.0
+    harm = np.array(sorted({s * round(o / grid) for o in offs.values() for s in (-1, 1)} | {0}))
+    ph = {n: phasors(cols[n], t0, h, w0, grid, harm) for n in ("Vx", "Vy", "Vpx", "Vpy")}
+    index = {j: i for i, j in enumerate(harm)}
+    E = np.zeros((2, 2), complex)
+    for col, drive in enumerate(("x", "y")):
+        entries = []
+        for sgn in (-1, 1):
+            j = index[sgn * round(offs[drive] / grid)]
+            w = w0 + harm[j] * 2 * math.pi * grid
+            v = ph[f"V{drive}"][j]
+            entries.append((w, np.array([ph["Vpx"][j], ph["Vpy"][j]]) / v * np.exp(1j * w * h)))
+        # H e^{i w h} = E + R e^{i w h} / (w0^2 - w^2): solve for E and R per pick-off
+        A = np.array([[1.0, np.exp(1j * w * h) / (w0**2 - w**2)] for w, _ in entries])
+        for row in range(2):
+            sol = np.linalg.solve(A, np.array([e[1][row] for e in entries]))
+            E[row, col] = sol[0]
+    ratios = []
+    for sgn in (-1, 1):
+        j = index[sgn * round(offs["ring"] / grid)]
+        ratios.append(ph["Vpy"][j] / ph["Vpx"][j])
+    return FeedForward(E.real.copy(), complex(np.mean(ratios)), E.imag.copy())
+
+
+def record_mode(res: ResonatorParameters, cfg: SelfCalConfig, mode: int,
+                ff: FeedForward) -> tuple[ModeData, CarrierRecord]:
+    """Run one mode with sidebands; return its phasors and the raw record."""
+    lo = replace(cfg.loops, mode=mode, sideband_index=cfg.sideband_index,
+                 sideband_spacing=cfg.sideband_spacing, sideband_first=1,
+                 sideband_count=cfg.sideband_count, sideband_start=0.0,
+                 ff_xx=ff.E[0, 0], ff_xy=ff.E[0, 1], ff_yx=ff.E[1, 0], ff_yy=ff.E[1, 1])
+    h = cfg.step
+    sim = CarrierSimulation(res, lo, seed=cfg.seed + mode, step=h, Omega_z=cfg.Omega_z)
+    rec = sim.run(cfg.settle + cfg.record, record_from=cfg.settle)
+    return mode_phasors(rec, mode, ff, cfg), rec
+
+
+def mode_phasors(rec: CarrierRecord, mode: int, ff: FeedForward,
+                 cfg: SelfCalConfig) -> ModeData:
+    """Demodulate a sideband record at the carrier and its sidebands (and their
+    intermodulation products up to twice the highest tone)."""
+    h = cfg.step
+    data = rec.data[:-1]
+    cols = CarrierRecord(data, h)
+    t0 = cols.time[0]
+    omega_osc = float(np.mean(cols["omega"]))
+    harm = np.arange(-2 * cfg.sideband_count, 2 * cfg.sideband_count + 1)
+    omega = omega_osc + harm * 2 * math.pi * cfg.sideband_spacing
+    ph = {n: phasors(cols[n], t0, h, omega_osc, cfg.sideband_spacing, harm)
+          for n in ("Vx", "Vy", "Vpx", "Vpy")}
+    D = np.stack([ph["Vx"], ph["Vy"]], axis=1)
+    PO = np.stack([ph["Vpx"], ph["Vpy"]], axis=1)
+    PO = PO - np.einsum("ij,nj->ni", ff.E, D) * np.exp(-1j * omega * h)[:, None]
+    amp = float(np.abs(PO[harm == 0, mode - 1][0]))
+    return ModeData(mode, omega, D, PO, omega_osc, amp)
+
+
+@dataclass
+class SelfCalResult:
+    """Everything the calibration found, with 1-sigma uncertainties."""
+
+    bias: float  #: rad/s
+    scale_factor: float  #: V/(rad/s)
+    sigma_bias: float
+    sigma_scale_factor: float
+    physical: dict[str, float]
+    rho: complex
+    feedthrough: np.ndarray
+    omega_r: float  #: rad/s, mode-1 oscillation frequency
+    amplitude: float
+    rms_residual: float
+    wall_time: float
+    fit: SidebandFit
+    modes: list[ModeData]
+
+    def summary(self) -> dict:
+        return {
+            "bias_rad_s": self.bias, "sigma_bias_rad_s": self.sigma_bias,
+            "scale_factor_V_per_rad_s": self.scale_factor,
+            "sigma_scale_factor_V_per_rad_s": self.sigma_scale_factor,
+            "relative_pickoff_gain": abs(self.rho),
+            "relative_pickoff_phase_rad": float(np.angle(self.rho)),
+            "feedthrough_V_per_V": self.feedthrough.tolist(),
+            "oscillation_frequency_Hz": self.omega_r / (2 * math.pi),
+            "rms_residual_V": self.rms_residual, "wall_time_s": self.wall_time,
+            **self.physical,
+        }
+
+
+def self_calibrate(res: ResonatorParameters, cfg: SelfCalConfig | None = None,
+                   modes: tuple[int, ...] = (1, 2)) -> SelfCalResult:
+    """The whole sequence, in process at carrier level."""
+    cfg = cfg or SelfCalConfig()
+    start = time.perf_counter()
+    ff = measure_feedforward(res, cfg)
+    data = [record_mode(res, cfg, m, ff)[0] for m in modes]
+    return estimate(data, ff, cfg, start)
+
+
+def estimate(data: list[ModeData], ff: FeedForward, cfg: SelfCalConfig,
+             start: float | None = None) -> SelfCalResult:
+    """Step 4: fit eq. 19 and compute bias and scale factor of the mode-1 read-out."""
+    lo = cfg.loops
+    kappa = cfg_kappa(cfg)
+    fit = fit_sidebands(data, ff.rho, kappa, cfg.step, lo.plant_gain, lo.q_nominal,
+                        cfg.fit_feedthrough)
+    m1 = next((d for d in data if d.mode == 1), data[0])
+    omega_r, amp = m1.omega_osc, lo.amplitude
+    bias, sf = bias_and_scale_factor(fit, omega_r, amp)
+    s_bias, s_sf = bias_and_scale_factor_sigma(fit, omega_r, amp)
+    wall = time.perf_counter() - start if start is not None else float("nan")
+    return SelfCalResult(bias, sf, s_bias, s_sf, fit.physical(), ff.rho, ff.E, omega_r, amp,
+                         fit.rms_residual, wall, fit, data)
+
+
+#: The Bryant factor the calibration assumes (from the factory); None = the plant's.
+BRYANT_FACTOR: float | None = None
+
+
+def cfg_kappa(cfg: SelfCalConfig) -> float:
+    return 0.8 if BRYANT_FACTOR is None else BRYANT_FACTOR
