@@ -36,17 +36,20 @@ class SelfCalConfig:
     """Record lengths and excitation of one calibration."""
 
     step: float = DEFAULT_STEP  #: s, communication step
-    ff_duration: float = 0.4  #: s, loops-off record (whole periods of 10 Hz)
+    ff_duration: float = 2.0  #: s, loops-off record (whole periods of 10 Hz)
     settle: float = 8.0  #: s, before each sideband record (5 ring-down times)
     record: float = 10.0  #: s, each sideband record (whole periods of the spacing)
-    sideband_index: float = 0.02  #: modulation index per tone
+    sideband_index: float = 0.04  #: modulation index per tone
     sideband_spacing: float = 0.2  #: Hz (two Hann bins of a 10 s record)
     sideband_count: int = 7  #: tones at 1..count times the spacing (0.2..1.4 Hz)
     Omega_z: float = 0.0  #: rad/s, background rate during calibration (earth rate)
     seed: int = 1
-    ring_amplitude: float = 1.0  #: V, each ring tone of step 1
+    kappa: float = 0.8  #: Bryant factor from the factory calibration (seed: constant)
+    ring_amplitude: float = 3.0  #: V, each ring tone of step 1 (0.3 V at the pick-offs)
     ring_offset: float = 260.0  #: Hz, ring tones at f_nominal -/+ this
     fit_feedthrough: bool = True  #: fit the feed-through left after the correction
+    modes: tuple[int, ...] = (1, 2)  #: (1,) = no mode reversal
+    fixed_rate: float | None = None  #: hold Omega_z at this value (no reversal: 0)
     loops: LoopSettings = field(default_factory=LoopSettings)
 
     def as_dict(self) -> dict:
@@ -166,13 +169,12 @@ class SelfCalResult:
         }
 
 
-def self_calibrate(res: ResonatorParameters, cfg: SelfCalConfig | None = None,
-                   modes: tuple[int, ...] = (1, 2)) -> SelfCalResult:
+def self_calibrate(res: ResonatorParameters, cfg: SelfCalConfig | None = None) -> SelfCalResult:
     """The whole sequence, in process at carrier level."""
     cfg = cfg or SelfCalConfig()
     start = time.perf_counter()
     ff = measure_feedforward(res, cfg)
-    data = [record_mode(res, cfg, m, ff)[0] for m in modes]
+    data = [record_mode(res, cfg, m, ff)[0] for m in cfg.modes]
     return estimate(data, ff, cfg, start)
 
 
@@ -180,9 +182,9 @@ def estimate(data: list[ModeData], ff: FeedForward, cfg: SelfCalConfig,
              start: float | None = None) -> SelfCalResult:
     """Step 4: fit eq. 19 and compute bias and scale factor of the mode-1 read-out."""
     lo = cfg.loops
-    kappa = cfg_kappa(cfg)
+    kappa = cfg.kappa
     fit = fit_sidebands(data, ff.rho, kappa, cfg.step, lo.plant_gain, lo.q_nominal,
-                        cfg.fit_feedthrough)
+                        cfg.fit_feedthrough, cfg.fixed_rate)
     m1 = next((d for d in data if d.mode == 1), data[0])
     omega_r, amp = m1.omega_osc, lo.amplitude
     bias, sf = bias_and_scale_factor(fit, omega_r, amp)
@@ -191,10 +193,3 @@ def estimate(data: list[ModeData], ff: FeedForward, cfg: SelfCalConfig,
     return SelfCalResult(bias, sf, s_bias, s_sf, fit.physical(), ff.rho, ff.E, omega_r, amp,
                          fit.rms_residual, wall, fit, data)
 
-
-#: The Bryant factor the calibration assumes (from the factory); None = the plant's.
-BRYANT_FACTOR: float | None = None
-
-
-def cfg_kappa(cfg: SelfCalConfig) -> float:
-    return 0.8 if BRYANT_FACTOR is None else BRYANT_FACTOR

@@ -1,0 +1,182 @@
+"""`gyro-fmu selfcal` and `gyro-fmu ratetable`: the calibration and its ground truth."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from dataclasses import fields, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..parameters import ParameterError
+from .loops import LoopsError
+from .phasors import PhasorError
+from .resonator import EARTH_RATE, ResonatorError, ResonatorParameters, check_resonator
+from .sequence import FeedForward, SelfCalConfig
+
+RESONATOR_NAMES = tuple(f.name for f in fields(ResonatorParameters))
+
+
+def _resonator(args: argparse.Namespace) -> ResonatorParameters:
+    changes: dict[str, float] = {}
+    for item in args.set or []:
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep:
+            raise ParameterError(f"--set {item!r} must read NAME=VALUE, e.g. Q_x=3e4")
+        if name not in RESONATOR_NAMES:
+            raise ParameterError(f"--set {item!r}: unknown resonator parameter {name!r}; "
+                                 f"known: {', '.join(RESONATOR_NAMES)}")
+        try:
+            changes[name] = float(value)
+        except ValueError:
+            raise ParameterError(f"--set {item!r}: {value!r} is not a number") from None
+    if args.noise is not None:
+        changes["noise"] = args.noise
+    res = replace(ResonatorParameters(), **changes)
+    if args.drift:
+        res = res.drifted(args.drift[0], args.drift[1])
+    problems = check_resonator(res)
+    if problems:
+        raise ParameterError("; ".join(problems))
+    return res
+
+
+def _config(args: argparse.Namespace) -> SelfCalConfig:
+    omega = 0.0
+    if args.latitude is not None:
+        if not -90.0 <= args.latitude <= 90.0:
+            raise ParameterError(f"--latitude {args.latitude!r} must lie in [-90, 90] deg")
+        omega = EARTH_RATE * math.sin(math.radians(args.latitude))
+    values = {"seed": args.seed, "Omega_z": omega}
+    for name in ("record", "settle", "sideband_count", "sideband_index", "sideband_spacing",
+                 "kappa"):
+        value = getattr(args, name, None)
+        if value is not None:
+            values[name] = value
+    for name in ("record", "settle", "sideband_spacing", "kappa"):
+        if name in values and not values[name] > 0:
+            raise ParameterError(f"--{name.replace('_', '-')} {values[name]!r} must be > 0")
+    return SelfCalConfig(**values)
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="resonator parameter (f_x, Q_x, dxy, kxy, Px, phi_y, Exy, ...)")
+    p.add_argument("--noise", type=float,
+                   help="pick-off noise, V per sample (2.5e-4 ~ 0.005 deg/s/sqrt(Hz))")
+    p.add_argument("--drift", type=float, nargs=2, metavar=("DF_HZ", "DAMPING_FACTOR"),
+                   help="temperature-like drift: shift both modes by DF_HZ, scale dampings")
+    p.add_argument("--latitude", type=float,
+                   help="deg: earth rate times sin(latitude) about the sense axis")
+    p.add_argument("--seed", type=int, default=1, help="noise seed")
+    p.add_argument("--out", help="output folder")
+
+
+def _cmd_selfcal(args: argparse.Namespace) -> int:
+    from .ratetable import rate_table
+    from .sequence import self_calibrate
+
+    try:
+        res, cfg = _resonator(args), _config(args)
+        result = self_calibrate(res, cfg)
+    except (ResonatorError, LoopsError, PhasorError) as exc:
+        raise ParameterError(str(exc)) from None
+    out = Path(args.out or "runs/selfcal")
+    out.mkdir(parents=True, exist_ok=True)
+    summary = {"resonator": res.as_dict(), "config": cfg.as_dict(), **result.summary()}
+    s = result.summary()
+    print(f"self-calibration ({len(cfg.modes)} modes, {cfg.record:g} s records, "
+          f"{cfg.sideband_count} sidebands): {s['wall_time_s']:.1f} s wall")
+    print(f"  bias          {s['bias_rad_s']:+.4e} rad/s  (1 sigma {s['sigma_bias_rad_s']:.1e})")
+    print(f"  scale factor  {s['scale_factor_V_per_rad_s']:.6f} V/(rad/s)  (1 sigma "
+          f"{s['sigma_scale_factor_V_per_rad_s'] / s['scale_factor_V_per_rad_s'] * 1e6:.1f} ppm)")
+    print(f"  dxy {s['dxy']:.4e} 1/s, kxy {s['kxy']:.4e} 1/s^2, background rate "
+          f"{s['Omega_z']:+.3e} rad/s (1 sigma {s['sigma_Omega_z']:.1e}), |Py/Px| "
+          f"{s['relative_pickoff_gain']:.5f}, phase {s['relative_pickoff_phase_rad']:+.2e} rad")
+    if args.compare_ratetable:
+        ff = FeedForward(result.feedthrough, result.rho, result.feedthrough * 0)
+        table = rate_table(replace(res, noise=0.0), ff, cfg)
+        d_bias = result.bias - table.bias
+        d_sf = (result.scale_factor / table.scale_factor - 1) * 1e6
+        print(f"  rate table (noise-free, same feed-forward): bias {table.bias:+.4e} rad/s, "
+              f"SF {table.scale_factor:.6f}; difference {d_bias:+.2e} rad/s, {d_sf:+.1f} ppm")
+        summary["ratetable"] = table.summary()
+        summary["difference"] = {"bias_rad_s": d_bias, "scale_factor_ppm": d_sf}
+    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=_json))
+    if not args.no_figures:
+        from .figures import sideband_figure
+
+        print(f"  figure: {sideband_figure(result, out / 'sidebands.png')}")
+    print(f"  summary: {out / 'summary.json'}")
+    return 0
+
+
+def _cmd_ratetable(args: argparse.Namespace) -> int:
+    from .ratetable import DEFAULT_RATES, rate_table
+    from .sequence import measure_feedforward
+
+    rates = tuple(args.rates) if args.rates else DEFAULT_RATES
+    if len(set(rates)) < 2 or not all(math.isfinite(r) for r in rates):
+        raise ParameterError(f"--rates {list(rates)} needs at least two distinct finite rates")
+    try:
+        res, cfg = _resonator(args), _config(args)
+        if args.feedforward_from:
+            s = json.loads(Path(args.feedforward_from).read_text())
+            rho = s["relative_pickoff_gain"] * np.exp(1j * s["relative_pickoff_phase_rad"])
+            ff = FeedForward(np.array(s["feedthrough_V_per_V"]), complex(rho), np.zeros((2, 2)))
+        else:
+            ff = measure_feedforward(res, cfg)
+        table = rate_table(res, ff, cfg, rates=rates, dwell=args.dwell, average=args.average)
+    except (ResonatorError, LoopsError, PhasorError) as exc:
+        raise ParameterError(str(exc)) from None
+    out = Path(args.out or "runs/ratetable")
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "summary.json").write_text(json.dumps(
+        {"resonator": res.as_dict(), **table.summary()}, indent=2, default=_json))
+    print(f"rate table, {len(rates)} rates: bias {table.bias:+.4e} rad/s (1 sigma "
+          f"{table.sigma_bias:.1e}), scale factor {table.scale_factor:.6f} V/(rad/s) "
+          f"(1 sigma {table.sigma_scale_factor / table.scale_factor * 1e6:.1f} ppm), "
+          f"largest nonlinearity {table.max_nonlinearity:.1e} rad/s; {table.wall_time:.1f} s")
+    print(f"  summary: {out / 'summary.json'}")
+    return 0
+
+
+def _json(value: object) -> object:
+    if isinstance(value, complex):
+        return [value.real, value.imag]
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"not JSON: {value!r}")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the selfcal and ratetable commands to `gyro-fmu`."""
+    sc = sub.add_parser("selfcal", help="self-calibrate bias and scale factor without "
+                        "rotation (US 9,482,553), carrier-level")
+    _common(sc)
+    sc.add_argument("--record", type=float, help="s per mode (multiple of 5; default 10)")
+    sc.add_argument("--settle", type=float, help="s before each record (default 8)")
+    sc.add_argument("--sidebands", dest="sideband_count", type=int,
+                    help="number of sideband tones (default 7)")
+    sc.add_argument("--index", dest="sideband_index", type=float,
+                    help="modulation index per tone (default 0.04)")
+    sc.add_argument("--spacing", dest="sideband_spacing", type=float,
+                    help="Hz between tones (default 0.2)")
+    sc.add_argument("--kappa", type=float, help="Bryant factor from the factory (default 0.8)")
+    sc.add_argument("--compare-ratetable", dest="compare_ratetable", action="store_true",
+                    help="also run the rate table on the same gyro and print the differences")
+    sc.add_argument("--no-figures", dest="no_figures", action="store_true")
+    sc.set_defaults(func=_cmd_selfcal)
+
+    rt = sub.add_parser("ratetable", help="conventional calibration on a simulated rate "
+                        "table (the ground truth of selfcal)")
+    _common(rt)
+    rt.add_argument("--rates", type=float, nargs="+", help="rad/s (default -1 .. 1, 7 rates)")
+    rt.add_argument("--dwell", type=float, default=1.0, help="s at each rate")
+    rt.add_argument("--average", type=float, default=0.5, help="s averaged at each rate")
+    rt.add_argument("--feedforward-from", dest="feedforward_from",
+                    help="summary.json of a selfcal run: use its feed-forward correction")
+    rt.set_defaults(func=_cmd_ratetable)
