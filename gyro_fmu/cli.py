@@ -309,7 +309,8 @@ def _scenario_options(r: argparse.ArgumentParser) -> None:
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="gyro-fmu",
-        description="MEMS gyroscope FMUs (US 2011/0314910 A1): build, co-simulate, report.",
+        description="MEMS gyroscope FMUs (US 2011/0314910 A1) and their self-calibration "
+                    "(US 9,482,553): build, co-simulate, calibrate, report.",
     )
     sub = p.add_subparsers(dest="command", required=True)
 
@@ -426,6 +427,10 @@ def parser() -> argparse.ArgumentParser:
     rep = sub.add_parser("report", help="print the summary and redraw the figures of a run")
     rep.add_argument("run_dir", help="folder written by `gyro-fmu run`")
     rep.set_defaults(func=_cmd_report)
+
+    from .selfcal.cli import register
+
+    register(sub)
     return p
 
 

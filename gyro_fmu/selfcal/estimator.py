@@ -107,7 +107,9 @@ def transfer(x: np.ndarray, omega: np.ndarray, omega_ref: float, rho: complex, k
     return G
 
 
-def _residuals(x, modes, omega_ref, rho, kappa, h, fit_ff):
+def _residuals(free, x_full, mask, modes, omega_ref, rho, kappa, h, fit_ff):
+    x = x_full.copy()
+    x[mask] = free
     out = []
     for md in modes:
         H = transfer(x, md.omega, omega_ref, rho, kappa, h, fit_ff)
@@ -133,19 +135,29 @@ def initial_guess(modes: list[ModeData], plant_gain: float, q_nominal: float,
 
 
 def fit_sidebands(modes: list[ModeData], rho: complex, kappa: float, h: float,
-                  plant_gain: float, q_nominal: float,
-                  fit_feedthrough: bool = True) -> SidebandFit:
-    """Minimise eq. 19 over the parameters; covariance from the Jacobian at the optimum."""
+                  plant_gain: float, q_nominal: float, fit_feedthrough: bool = True,
+                  fixed_rate: float | None = None) -> SidebandFit:
+    """Minimise eq. 19 over the parameters; covariance from the Jacobian at the optimum.
+
+    fixed_rate: hold Omega_z at this value instead of fitting it (what a calibration
+    without mode reversal must assume; the earth-rate study uses it).
+    """
     omega_ref, x0 = initial_guess(modes, plant_gain, q_nominal, fit_feedthrough)
-    args = (modes, omega_ref, rho, kappa, h, fit_feedthrough)
-    res = least_squares(_residuals, x0, args=args, method="lm", x_scale="jac",
+    mask = np.ones(x0.size, bool)
+    if fixed_rate is not None:
+        x0[6] = fixed_rate
+        mask[6] = False
+    args = (x0, mask, modes, omega_ref, rho, kappa, h, fit_feedthrough)
+    res = least_squares(_residuals, x0[mask], args=args, method="lm", x_scale="jac",
                         xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=20000)
     n, p = res.fun.size, res.x.size
     s2 = float(res.fun @ res.fun) / max(n - p, 1)
-    J = res.jac
-    cov = s2 * np.linalg.pinv(J.T @ J)
+    cov = np.zeros((x0.size, x0.size))
+    cov[np.ix_(mask, mask)] = s2 * np.linalg.pinv(res.jac.T @ res.jac)
+    x = x0.copy()
+    x[mask] = res.x
     names = CORE + FORCER + (RESIDUAL_FEEDTHROUGH if fit_feedthrough else ())
-    return SidebandFit(res.x, cov, omega_ref, rho, kappa, h, fit_feedthrough,
+    return SidebandFit(x, cov, omega_ref, rho, kappa, h, fit_feedthrough,
                        math.sqrt(s2), names)
 
 
@@ -177,7 +189,9 @@ def bias_and_scale_factor_sigma(fit: SidebandFit, omega_r: float,
     grads = np.zeros((2, fit.x.size))
     sig = fit.sigma()
     for i in range(fit.x.size):
-        step = sig[i] * 1e-3 if sig[i] > 0 else 1e-12
+        if sig[i] == 0.0:  # held, not fitted
+            continue
+        step = sig[i] * 1e-3
         x = fit.x.copy()
         x[i] += step
         grads[:, i] = (np.array(bias_and_scale_factor(fit, omega_r, amplitude, x)) - base) / step
