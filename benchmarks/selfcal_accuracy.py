@@ -132,12 +132,34 @@ def drift() -> None:
           f"SF {(table.scale_factor / table_old.scale_factor - 1) * 1e6:+.1f} ppm")
 
 
+def rate_noise(noise: float = NOISE, duration: float = 40.0) -> None:
+    """Rate-noise density of the normal (mode 1) read-out for the pick-off noise."""
+    from gyro_fmu.selfcal.carrier import CarrierSimulation
+    from gyro_fmu.selfcal.loops import LoopSettings
+
+    print(f"\n## Rate noise of the read-out, pick-off noise {noise} V per sample")
+    sim = CarrierSimulation(replace(ResonatorParameters(), noise=noise), LoopSettings(mode=1),
+                            seed=7)
+    rec = sim.run(duration + 2.0, record_from=2.0)
+    sf = rate_table(ResonatorParameters(), FeedForward(np.zeros((2, 2)), 1.0,
+                                                       np.zeros((2, 2)))).scale_factor
+    rate = rec["rate"][:-1] / sf
+    for T in (1.0, 4.0):
+        n = round(T / sim.step)
+        means = rate[: len(rate) // n * n].reshape(-1, n).mean(axis=1)
+        density = means.std(ddof=1) * math.sqrt(2 * T)  # one-sided, white
+        print(f"  {T:g} s means: std {means.std(ddof=1):.2e} rad/s -> density "
+              f"{math.degrees(density):.4f} deg/s/sqrt(Hz) "
+              f"(angle random walk {math.degrees(density) / math.sqrt(2) * 60:.2f} deg/sqrt(h))")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=5)
-    ap.add_argument("--only", choices=("headline", "factors", "earth", "drift"))
+    ap.add_argument("--only", choices=("noise", "headline", "factors", "earth", "drift"))
     a = ap.parse_args()
-    studies = {"headline": lambda: headline(a.seeds), "factors": one_at_a_time,
+    studies = {"noise": rate_noise, "headline": lambda: headline(a.seeds),
+               "factors": one_at_a_time,
                "earth": earth_rate, "drift": drift}
     for name, fn in studies.items():
         if a.only in (None, name):
