@@ -26,7 +26,8 @@ CAPABILITIES = {
 }
 
 #: The FMUs of the product, by model identifier (= slave class = source file stem).
-FMU_NAMES = ("GyroPlant", "TwoToneDrive", "RateProfile", "GyroObserver")
+FMU_NAMES = ("GyroPlant", "TwoToneDrive", "RateProfile", "GyroObserver", "GyroResonator",
+             "GyroLoops")
 
 
 def build_fmu(name: str, dest: Path = MODELS_DIR, reference: bool = True) -> Path:

@@ -59,6 +59,11 @@ UNITS: dict[str, dict[str, int]] = {
     "rad2/s": {"rad": 2, "s": -1},
     "rad2/s3": {"rad": 2, "s": -3},
     "rad2/s5": {"rad": 2, "s": -5},
+    "rad": {"rad": 1},
+    "V": {"kg": 1, "m": 2, "s": -3, "A": -1},
+    "V/m": {"kg": 1, "m": 1, "s": -3, "A": -1},
+    "m/V": {"kg": -1, "m": -1, "s": 3, "A": 1},
+    "m/s2/V": {"kg": -1, "m": -1, "s": 1, "A": 1},
 }
 
 _FMAX = sys.float_info.max

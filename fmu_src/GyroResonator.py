@@ -1,0 +1,82 @@
+"""GyroResonator.fmu: the resonator of US 9,482,553 (eq. 1), voltages in and out."""
+
+from pythonfmu.default_experiment import DefaultExperiment
+
+from gyro_fmu.fmi import GyroSlave, Var
+from gyro_fmu.selfcal.fmu_run import parameter_variables
+from gyro_fmu.selfcal.resonator import ResonatorParameters
+
+#: FMI unit of every field of ResonatorParameters.
+_UNITS = {
+    "f_x": "Hz", "f_y": "Hz", "Q_x": "1", "Q_y": "1", "dxy": "1/s", "kxy": "1/s2",
+    "kappa": "1", "Bx": "m/s2/V", "By": "m/s2/V", "alpha_x": "rad", "alpha_y": "rad",
+    "Px": "V/m", "Py": "V/m", "phi_x": "rad", "phi_y": "rad",
+    "Exx": "1", "Exy": "1", "Eyx": "1", "Eyy": "1", "c_ring": "m/V",
+    "ring_amplitude": "V", "ring_frequency_1": "Hz", "ring_frequency_2": "Hz", "noise": "V",
+}
+#: Declared bounds (check_resonator states the strict ones at initialization).
+_BOUNDS = {
+    **{n: {"min": 0.0} for n in ("f_x", "f_y", "Q_x", "Q_y", "kappa", "Bx", "By", "Px", "Py",
+                                 "noise")},
+    **{n: {"min": -1.5, "max": 1.5} for n in ("phi_x", "phi_y")},
+    "Px": {"min": 0.0, "nominal": 1e6}, "Py": {"min": 0.0, "nominal": 1e6},
+    "c_ring": {"nominal": 1e-7},
+}
+
+
+class GyroResonator(GyroSlave):
+    """Near mode-matched resonator of US 9,482,553, eq. 1, per unit modal mass:
+    x'' + dxx x' + (dxy - 2 kappa Omega_z) y' + kxx x + kxy y = fx,
+    y'' + dyy y' + (dxy + 2 kappa Omega_z) x' + kyy y + kxy x = fy,
+    fx = Bx (Vx + alpha_y Vy), fy = By (Vy + alpha_x Vx), with kxx = (2 pi f_x)^2,
+    dxx = 2 pi f_x / Q_x (y alike). Pick-offs: Vpx = Px zx + Exx Vx + Exy Vy + noise,
+    Vpy = Py zy + Eyx Vx + Eyy Vy + noise, first-order lags tau z' = q - z + c_ring
+    V_ring with tan phi = 2 pi f_x tau, V_ring = ring_amplitude (cos 2 pi
+    ring_frequency_1 t + cos 2 pi ring_frequency_2 t) generated inside. Inputs Vx, Vy,
+    Omega_z are held over each communication step, which is integrated exactly
+    (matrix exponential); the seeded noise (std noise per pick-off sample) equals the
+    in-process gyro_fmu.selfcal.carrier run sample for sample."""
+
+    description = " ".join((__doc__ or "").split())
+    #: 10 samples per 4 kHz carrier cycle; 0.02 s is the reference run stored in the FMU
+    default_experiment = DefaultExperiment(start_time=0.0, stop_time=0.02, step_size=25e-6)
+    VARIABLES = (
+        *parameter_variables(ResonatorParameters, _UNITS, bounds=_BOUNDS),
+        Var("seed", "parameter", 0, None, "seed of the pick-off noise generator", integer=True,
+            min=0),
+        Var("Vx", "input", 0.0, "V", "x forcer voltage, held over the step"),
+        Var("Vy", "input", 0.0, "V", "y forcer voltage, held over the step"),
+        Var("Omega_z", "input", 0.0, "rad/s", "angular rate about z, held over the step"),
+        Var("Vpx", "output", 0.0, "V", "x pick-off voltage"),
+        Var("Vpy", "output", 0.0, "V", "y pick-off voltage"),
+    )
+
+    def setup(self) -> None:
+        import numpy as np
+
+        from gyro_fmu.fmi import dataclass_from_parameters
+        from gyro_fmu.selfcal.resonator import ResonatorModel, check_resonator
+
+        params = dataclass_from_parameters(ResonatorParameters, self)
+        problems = check_resonator(params)
+        if problems:
+            raise ValueError("unusable resonator parameters: " + "; ".join(problems))
+        self.model = ResonatorModel(params, seed=int(self.seed))
+        self._V = np.zeros(2)
+        self._publish()
+
+    def advance(self, t: float, h: float) -> None:
+        V = self._V
+        V[0], V[1] = self.Vx, self.Vy
+        self.model.step(V, self.Omega_z, h)
+        self._publish()
+
+    def model_state(self) -> dict:
+        return self.model.get_state()
+
+    def restore_model_state(self, state: dict) -> None:
+        self.model.set_state(state)
+
+    def _publish(self) -> None:
+        out = self.model.out
+        self.Vpx, self.Vpy = float(out[0]), float(out[1])

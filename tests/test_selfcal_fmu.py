@@ -1,0 +1,174 @@
+"""GyroResonator.fmu and GyroLoops.fmu: thin adapters of the self-calibration library.
+
+The co-simulation of the two FMUs through the fmpy master equals the in-process
+CarrierSimulation bit for bit; their state is exact; bad values are refused.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from fmpy import read_model_description
+from fmu_harness import Instance
+
+from gyro_fmu.fmi import DEBUG_CATEGORY, UNITS
+from gyro_fmu.selfcal.carrier import COLUMNS, CarrierSimulation
+from gyro_fmu.selfcal.fmu_run import LOOPS_RENAMED, field_comments, run_fmus
+from gyro_fmu.selfcal.loops import OUTPUTS, LoopSettings, LoopsModel
+from gyro_fmu.selfcal.resonator import ResonatorModel, ResonatorParameters
+
+H = 25e-6
+
+
+def _assert_bit_identical(fmu, ref):
+    assert fmu.data.shape == ref.data.shape
+    for j, name in enumerate(COLUMNS):
+        assert np.array_equal(fmu.data[:, j], ref.data[:, j]), name
+
+
+@pytest.mark.parametrize(("resonator", "settings", "Omega_z", "seed"), [
+    (ResonatorParameters(noise=1e-3), LoopSettings(mode=1), 0.3, 7),
+    (ResonatorParameters(ring_amplitude=1.0), LoopSettings(mode=0), 0.0, 0),
+    (ResonatorParameters(noise=1e-3), LoopSettings(mode=2, sideband_index=0.05,
+                                                   amplitude=0.8), 0.0, 3),
+], ids=["mode1-noise-rate", "mode0-ring", "mode2-sidebands"])
+def test_fmu_cosimulation_equals_carrier_simulation_bit_for_bit(models_dir, resonator, settings,
+                                                                Omega_z, seed):
+    duration, record_from = 0.05, 0.01
+    ref = CarrierSimulation(resonator, settings, seed=seed, step=H, Omega_z=Omega_z).run(
+        duration, record_from=record_from)
+    fmu = run_fmus(resonator, settings, duration, step=H, Omega_z=Omega_z, seed=seed,
+                   record_from=record_from, models_dir=models_dir)
+    assert fmu.step == H
+    assert fmu.time[0] == pytest.approx(record_from) and fmu.time[-1] == pytest.approx(duration)
+    _assert_bit_identical(fmu, ref)
+    if settings.mode:
+        assert fmu["amplitude"][-1] > 0.1  # the oscillator really runs
+    else:
+        assert np.ptp(fmu["Vpy"]) > 0.0  # tones and ring excitation reach the pick-offs
+
+
+def test_parameters_mirror_the_dataclasses(models_dir):
+    for fmu, cls, extra, renamed in (("GyroResonator", ResonatorParameters, {"seed"}, {}),
+                                     ("GyroLoops", LoopSettings, set(), LOOPS_RENAMED)):
+        md = read_model_description(str(models_dir / f"{fmu}.fmu"))
+        params = {v.name: v for v in md.modelVariables if v.causality == "parameter"}
+        fields = {renamed.get(f.name, f.name): f for f in dataclasses.fields(cls)}
+        assert set(params) == set(fields) | extra
+        comments = field_comments(cls)
+        for name, f in fields.items():
+            v = params[name]
+            assert float(v.start) == float(f.default), name
+            assert (v.type == "Integer") == (f.type == "int"), name
+            if v.type == "Real":
+                assert v.unit in UNITS, name
+            if f.name in comments and fmu == "GyroResonator":
+                assert v.description == comments[f.name]
+    md = read_model_description(str(models_dir / "GyroLoops.fmu"))
+    assert [v.name for v in md.modelVariables if v.causality == "output"] == list(OUTPUTS)
+    units = {v.name: v.unit for v in md.modelVariables}
+    assert (units["theta"], units["omega"], units["Vx"]) == ("rad", "rad/s", "V")
+    md = read_model_description(str(models_dir / "GyroResonator.fmu"))
+    units = {v.name: v.unit for v in md.modelVariables}
+    assert (units["Bx"], units["Px"], units["c_ring"], units["kxy"]) == (
+        "m/s2/V", "V/m", "m/V", "1/s2")
+
+
+def test_initial_outputs_are_the_models(models_dir):
+    p = ResonatorParameters(noise=1e-3, ring_amplitude=0.5, phi_x=0.0, phi_y=0.0)
+    res = Instance(models_dir / "GyroResonator.fmu", "r", {**p.as_dict(), "seed": 4})
+    assert res.get(["Vpx", "Vpy"]) == ResonatorModel(p, seed=4).out.tolist()
+    res.close()
+    s = LoopSettings(f_nominal=3999.0)
+    loops = Instance(models_dir / "GyroLoops.fmu", "l", {"f_nominal": s.f_nominal})
+    assert loops.get(list(OUTPUTS)) == LoopsModel(s).out.tolist()
+    loops.close()
+
+
+def _run(inst: Instance, n: int, outputs: list[str], inputs) -> np.ndarray:
+    rows = []
+    for _ in range(n):
+        inst.set(inputs(inst.t))
+        assert inst.step(H) == 0
+        rows.append(inst.get(outputs))
+    return np.array(rows)
+
+
+CASES = {
+    "GyroResonator": ({"noise": 1e-3, "ring_amplitude": 1.0, "seed": 5}, ["Vpx", "Vpy"],
+                      lambda t: {"Vx": math.sin(2 * math.pi * 4000 * t),
+                                 "Vy": 0.3 * math.cos(2 * math.pi * 3000 * t),
+                                 "Omega_z": 0.2}),
+    "GyroLoops": ({"sideband_index": 0.05, "ff_xx": 1e-3}, list(OUTPUTS),
+                  lambda t: {"Vpx": 0.5 * math.sin(2 * math.pi * 4000.5 * t),
+                             "Vpy": 0.01 * math.cos(2 * math.pi * 4000.5 * t)}),
+}
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_state_restore_and_serialization_are_exact(models_dir, name):
+    """Run, save; run on; restore and run again: the same bits. The same through
+    serialize -> deserialize into a fresh instance (noise generator and block included:
+    6000 steps cross a 4096-sample noise block)."""
+    params, outputs, inputs = CASES[name]
+    a = Instance(models_dir / f"{name}.fmu", "a", params)
+    _run(a, 4000, outputs, inputs)
+    state = a.slave.getFMUstate()
+    t1 = a.t
+    first = _run(a, 300, outputs, inputs)
+    a.slave.setFMUstate(state)
+    a.t = t1
+    again = _run(a, 300, outputs, inputs)
+    assert np.array_equal(first, again)
+    blob = a.slave.serializeFMUstate(state)
+    a.slave.freeFMUstate(state)
+    b = Instance(models_dir / f"{name}.fmu", "b", params)
+    b.slave.setFMUstate(b.slave.deSerializeFMUstate(blob))
+    b.t = t1
+    assert np.array_equal(first, _run(b, 300, outputs, inputs))
+    assert b.messages(min_status=3) == ""
+    a.close()
+    b.close()
+
+
+BAD_INPUTS = [
+    ("GyroResonator", {}, ("input", "Vx", float("nan")), "input Vx=nan is not finite"),
+    ("GyroResonator", {}, ("input", "Omega_z", float("inf")), "input Omega_z=inf is not finite"),
+    ("GyroResonator", {}, ("step", 0.0, None), "must be > 0"),
+    ("GyroResonator", {}, ("after_init", "f_x", 4100.0), "f_x is a fixed parameter"),
+    ("GyroResonator", {"noise": -1.0}, ("init", None, None), "noise=-1.0 is below its minimum 0"),
+    ("GyroResonator", {"Q_x": 0.0}, ("init", None, None), "Q_x=0.0 must be > 0"),
+    ("GyroResonator", {"kxy": 1e9}, ("init", None, None), "makes the stiffness indefinite"),
+    ("GyroLoops", {}, ("input", "Vpy", float("-inf")), "input Vpy=-inf is not finite"),
+    ("GyroLoops", {"mode": 3}, ("init", None, None), "mode=3 is above its maximum 2"),
+    ("GyroLoops", {"amplitude_setpoint": 0.0}, ("init", None, None),
+     "amplitude=0.0 must be > 0"),
+]
+
+
+@pytest.mark.parametrize(("name", "params", "action", "message"), BAD_INPUTS,
+                         ids=[f"{r[0]}-{r[2][0]}-{r[2][1]}" for r in BAD_INPUTS])
+def test_bad_input_is_refused_with_a_message_and_never_crashes(models_dir, name, params, action,
+                                                              message):
+    inst = Instance(models_dir / f"{name}.fmu", "bad", params)
+    kind, what, value = action
+    outputs = [v for v, x in inst.vars.items() if x.causality == "output"]
+    before = inst.get(outputs)
+    if kind == "step":
+        inst.slave.doStep(0.0, H)
+        inst.t = H
+        assert inst.step(what) == 2
+    else:
+        if kind in ("input", "after_init"):
+            inst.set({what: value})
+        assert inst.step(H) == 2  # fmi2Discard
+    text = inst.messages()
+    assert message in text, text
+    assert "Traceback" in inst.category(DEBUG_CATEGORY)
+    if kind in ("input", "after_init"):
+        assert np.array_equal(np.array(before), np.array(inst.get(outputs)))
+        assert inst.step(H) == 0  # recoverable
+    inst.close()
