@@ -18,7 +18,7 @@ _UNITS = {
 _BOUNDS = {
     **{n: {"min": 0.0} for n in ("f_x", "f_y", "Q_x", "Q_y", "kappa", "Bx", "By", "Px", "Py",
                                  "noise")},
-    **{n: {"min": -1.5, "max": 1.5} for n in ("phi_x", "phi_y")},
+    **{n: {"min": 0.0, "max": 1.5} for n in ("phi_x", "phi_y")},
     "Px": {"min": 0.0, "nominal": 1e6}, "Py": {"min": 0.0, "nominal": 1e6},
     "c_ring": {"nominal": 1e-7},
 }

@@ -34,8 +34,24 @@ def reference_inputs(model_name: str, stop_time: float, step: float) -> np.ndarr
     """Inputs of an FMU's reference run (structured array, 'time' first), or None.
 
     GyroPlant gets the default two-tone drive and 1 rad/s; GyroObserver gets the
-    drive and the noise-free measurements of the default park-horowitz plant.
+    drive and the noise-free measurements of the default park-horowitz plant;
+    GyroResonator a 0.6 V drive at 4 kHz and 1 rad/s; GyroLoops a 1 V, 4 kHz primary
+    pick-off and a small secondary one (the PLL locks, the AGC and rebalance act).
     """
+    if model_name in ("GyroResonator", "GyroLoops"):
+        t = np.arange(round(stop_time / step) + 1) * step
+        carrier = 2 * np.pi * 4000.0 * t
+        if model_name == "GyroResonator":
+            names, columns = ("Vx", "Vy", "Omega_z"), (0.6 * np.sin(carrier), 0 * t,
+                                                        np.ones_like(t))
+        else:
+            names, columns = ("Vpx", "Vpy"), (np.cos(carrier + 0.3),
+                                              0.01 * np.sin(carrier + 0.1))
+        table = np.zeros(t.size, dtype=[("time", float)] + [(n, float) for n in names])
+        table["time"] = t
+        for n, c in zip(names, columns, strict=True):
+            table[n] = c
+        return table
     if model_name not in ("GyroPlant", "GyroObserver"):
         return None
     from .scenario import noise_free_run, scenario

@@ -79,8 +79,13 @@ class CarrierSimulation:
             self.Omega_z = Omega_z
         h = self.step
         n = round(duration / h)
+        if n < 1:
+            raise ValueError(f"duration {duration!r} s is shorter than the step {h} s")
         k_end = self.k + n
         r0 = max(self.k, round(record_from / h))
+        if r0 > k_end:
+            raise ValueError(f"record_from {record_from!r} s is after the end of the run "
+                             f"({k_end * h:g} s): record from at most the end")
         rec = np.zeros((k_end - r0 + 1, len(COLUMNS)))
         Phi, Gamma = self.plant.matrices(self.Omega_z, h)
         pl, lo = self.plant, self.loops

@@ -147,8 +147,9 @@ def check_resonator(p: ResonatorParameters) -> list[str]:
         if not getattr(p, name) > 0.0:
             problems.append(f"{name}={getattr(p, name)!r} must be > 0")
     for name in ("phi_x", "phi_y"):
-        if not -1.5 < getattr(p, name) < 1.5:
-            problems.append(f"{name}={getattr(p, name)!r} rad must lie in (-1.5, 1.5)")
+        if not 0.0 <= getattr(p, name) < 1.5:
+            problems.append(f"{name}={getattr(p, name)!r} rad must lie in [0, 1.5): a "
+                            "pick-off lag (0 = none)")
     if p.noise < 0.0:
         problems.append(f"noise={p.noise!r} V must be >= 0")
     if not problems and p.kxy**2 >= p.kxx * p.kyy:
@@ -274,8 +275,9 @@ class ResonatorModel:
         self._key: tuple[float, float] | None = None
         self.out = np.zeros(2)
         ring = p.c_ring * p.ring_amplitude * (self.s[6] + self.s[8])
-        z0 = self.s[4:6] if p.tau_x > 0 and p.tau_y > 0 else self.s[0:2] + ring
-        self.out[:] = self.gains * z0 + self.noise.take(1)[0]
+        z0 = [self.s[4 + i] if tau > 0 else self.s[i] + ring
+              for i, tau in enumerate((p.tau_x, p.tau_y))]
+        self.out[:] = self.gains * np.array(z0) + self.noise.take(1)[0]
 
     def matrices(self, Omega_z: float, h: float) -> tuple[np.ndarray, np.ndarray]:
         if self._key != (Omega_z, h):
