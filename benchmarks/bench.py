@@ -23,6 +23,7 @@ import sys
 import tempfile
 import textwrap
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -129,6 +130,26 @@ def fresh_process(name: str, stop: float) -> tuple[float, float, float, float, f
     return (time.perf_counter() - start, *map(float, out))
 
 
+def selfcal_times(repeat: int) -> tuple[float, float, float]:
+    """Median wall of a whole default self-calibration in process (s), the two-FMU
+    co-simulation's cost per step (us, 0.5 s run) and the implied FMU calibration (s)."""
+    from gyro_fmu.selfcal.fmu_run import run_fmus as run_selfcal_fmus
+    from gyro_fmu.selfcal.loops import LoopSettings
+    from gyro_fmu.selfcal.resonator import ResonatorParameters
+    from gyro_fmu.selfcal.sequence import SelfCalConfig, self_calibrate
+
+    res, cfg = ResonatorParameters(noise=2.5e-4), SelfCalConfig()
+    self_calibrate(res, replace(cfg, settle=1.0, record=5.0))  # compile the kernels
+    walls = [_timed(lambda: self_calibrate(res, cfg)) for _ in range(repeat)]
+    run_selfcal_fmus(res, LoopSettings(), 0.01)  # build if needed, load
+    per_step = statistics.median(
+        _timed(lambda: run_selfcal_fmus(res, LoopSettings(), 0.5))
+        for _ in range(min(repeat, 3))
+    ) / round(0.5 / cfg.step) * 1e6
+    n_cal = round((cfg.ff_duration + 0.1 + 2 * (cfg.settle + cfg.record)) / cfg.step)
+    return statistics.median(walls), per_step, per_step * 1e-6 * n_cal
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
@@ -152,6 +173,7 @@ def main() -> None:
             times["plant_const"].append(plant_step_us(sc, changing=False))
             times["observer"].append(observer_step_us(sc, 5000))
     med = {k: statistics.median(v) for k, v in times.items()}
+    cal_inprocess, cal_fmu_step, cal_fmu = selfcal_times(args.repeat)
     fresh = fresh_process(args.scenario, sc.stop_time)
     memory = None if args.no_memory else fresh_process(args.scenario, 1.0)
     n = sc.n_steps
@@ -169,6 +191,9 @@ def main() -> None:
         ("fresh process: run incl. imports", fresh[1], "s", None, "<= 2 s"),
         ("fresh process: whole process", fresh[0], "s", None, ""),
     ]
+    rows += [("self-calibration, in process", cal_inprocess, "s", None, "< 5 min"),
+             ("self-calibration FMUs: per step", cal_fmu_step, "us", None, ""),
+             ("self-calibration through FMUs", cal_fmu, "s", None, "< 5 min (implied)")]
     if memory is not None:
         rows += [("1 s run, all outputs: peak RSS", memory[3], "MB", None, "< 500 MB"),
                  ("1 s run: result array", memory[4], "MB", None, ""),

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -50,6 +51,8 @@ class SelfCalConfig:
     fit_feedthrough: bool = True  #: fit the feed-through left after the correction
     modes: tuple[int, ...] = (1, 2)  #: (1,) = no mode reversal
     fixed_rate: float | None = None  #: hold Omega_z at this value (no reversal: 0)
+    engine: str = "inprocess"  #: "inprocess" or "fmu" (GyroResonator + GyroLoops FMUs)
+    models_dir: str | None = None  #: folder of the FMUs (engine "fmu"; default models/)
     loops: LoopSettings = field(default_factory=LoopSettings)
 
     def as_dict(self) -> dict:
@@ -74,8 +77,7 @@ def measure_feedforward(res: ResonatorParameters, cfg: SelfCalConfig) -> FeedFor
     f0 = lo.f_nominal
     res = replace(res, ring_amplitude=cfg.ring_amplitude,
                   ring_frequency_1=f0 - cfg.ring_offset, ring_frequency_2=f0 + cfg.ring_offset)
-    sim = CarrierSimulation(res, lo, seed=cfg.seed, step=h, Omega_z=cfg.Omega_z)
-    rec = sim.run(cfg.ff_duration + 0.1, record_from=0.1)
+    rec = simulate(res, lo, cfg, cfg.seed, cfg.ff_duration + 0.1, 0.1)
     t0, data = rec.time[0], rec.data[:-1]
     cols = CarrierRecord(data, h)
     w0 = 2 * math.pi * lo.f_nominal
@@ -111,10 +113,21 @@ def record_mode(res: ResonatorParameters, cfg: SelfCalConfig, mode: int,
                  sideband_spacing=cfg.sideband_spacing, sideband_first=1,
                  sideband_count=cfg.sideband_count, sideband_start=0.0,
                  ff_xx=ff.E[0, 0], ff_xy=ff.E[0, 1], ff_yx=ff.E[1, 0], ff_yy=ff.E[1, 1])
-    h = cfg.step
-    sim = CarrierSimulation(res, lo, seed=cfg.seed + mode, step=h, Omega_z=cfg.Omega_z)
-    rec = sim.run(cfg.settle + cfg.record, record_from=cfg.settle)
+    rec = simulate(res, lo, cfg, cfg.seed + mode, cfg.settle + cfg.record, cfg.settle)
     return mode_phasors(rec, mode, ff, cfg), rec
+
+
+def simulate(res: ResonatorParameters, lo: LoopSettings, cfg: SelfCalConfig, seed: int,
+             duration: float, record_from: float) -> CarrierRecord:
+    """One run from rest on the configured engine: in process, or the two FMUs through
+    the fmpy master (bit-identical, tests/test_selfcal_fmu.py; about 80 times slower)."""
+    if cfg.engine == "fmu":
+        from .fmu_run import run_fmus
+
+        models = Path(cfg.models_dir) if cfg.models_dir else None
+        return run_fmus(res, lo, duration, cfg.step, cfg.Omega_z, seed, record_from, models)
+    sim = CarrierSimulation(res, lo, seed=seed, step=cfg.step, Omega_z=cfg.Omega_z)
+    return sim.run(duration, record_from=record_from)
 
 
 def mode_phasors(rec: CarrierRecord, mode: int, ff: FeedForward,
