@@ -96,6 +96,8 @@ def one_at_a_time() -> None:
               compare(base, SelfCalConfig(fit_feedthrough=False))))
     print(row("no noise, Bryant factor 1e-4 off",
               compare(base, SelfCalConfig(kappa=0.8 * (1 + 1e-4)))))
+    print(row("no noise, cubic stiffness 0.01 Hz/um",
+              compare(replace(base, k3x=4.2e15, k3y=4.2e15), SelfCalConfig())))
     print(row("no noise, 5 tones (0.2..1.0 Hz)",
               compare(base, SelfCalConfig(sideband_count=5))))
 

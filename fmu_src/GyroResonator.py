@@ -13,6 +13,7 @@ _UNITS = {
     "Px": "V/m", "Py": "V/m", "phi_x": "rad", "phi_y": "rad",
     "Exx": "1", "Exy": "1", "Eyx": "1", "Eyy": "1", "c_ring": "m/V",
     "ring_amplitude": "V", "ring_frequency_1": "Hz", "ring_frequency_2": "Hz", "noise": "V",
+    "k3x": "1/(m2.s2)", "k3y": "1/(m2.s2)",
 }
 #: Declared bounds (check_resonator states the strict ones at initialization).
 _BOUNDS = {
@@ -21,6 +22,7 @@ _BOUNDS = {
     **{n: {"min": 0.0, "max": 1.5} for n in ("phi_x", "phi_y")},
     "Px": {"min": 0.0, "nominal": 1e6}, "Py": {"min": 0.0, "nominal": 1e6},
     "c_ring": {"nominal": 1e-7},
+    "cubic_substeps": {"min": 1},
 }
 
 
@@ -28,6 +30,7 @@ class GyroResonator(GyroSlave):
     """Near mode-matched resonator of US 9,482,553, eq. 1, per unit modal mass:
     x'' + dxx x' + (dxy - 2 kappa Omega_z) y' + kxx x + kxy y = fx,
     y'' + dyy y' + (dxy + 2 kappa Omega_z) x' + kyy y + kxy x = fy,
+    plus optional cubic stiffness k3x x^3, k3y y^3 (eqs. 20-21),
     fx = Bx (Vx + alpha_y Vy), fy = By (Vy + alpha_x Vx), with kxx = (2 pi f_x)^2,
     dxx = 2 pi f_x / Q_x (y alike). Pick-offs: Vpx = Px zx + Exx Vx + Exy Vy + noise,
     Vpy = Py zy + Eyx Vx + Eyy Vy + noise, first-order lags tau z' = q - z + c_ring

@@ -64,6 +64,7 @@ UNITS: dict[str, dict[str, int]] = {
     "V/m": {"kg": 1, "m": 1, "s": -3, "A": -1},
     "m/V": {"kg": -1, "m": -1, "s": 3, "A": 1},
     "m/s2/V": {"kg": -1, "m": -1, "s": 1, "A": 1},
+    "1/(m2.s2)": {"m": -2, "s": -2},
 }
 
 _FMAX = sys.float_info.max

@@ -163,3 +163,36 @@ def test_cli_selfcal_writes_summary_and_figure(tmp_path) -> None:
     assert abs(s["difference"]["bias_rad_s"]) < 1e-6
     assert abs(s["difference"]["scale_factor_ppm"]) < 5
     assert (out / "sidebands.png").stat().st_size > 10_000
+
+
+def test_cubic_stiffness_step_matches_an_independent_integration() -> None:
+    """Strang splitting (exact linear flow around cubic kicks) against scipy DOP853 of
+    eqs. 1 + 20-21, held drive, 5 ms at 1 Hz of cubic frequency shift per um."""
+    from scipy.integrate import solve_ivp
+
+    from gyro_fmu.selfcal.resonator import ResonatorModel
+
+    p = replace(TRUE, phi_x=0.0, phi_y=0.0, k3x=4.2e17, k3y=-3e17)
+    h, n = 25e-6, 200
+    model = ResonatorModel(p)
+    model.s[0] = 1e-6
+    t = np.arange(n) * h
+    V = np.stack([0.6 * np.sin(2 * np.pi * 4000 * t), 0.1 * np.cos(2 * np.pi * 4000.3 * t)], 1)
+    A, B = system_matrices(p, 0.0)
+    A, B = A[:4, :4], B[:4]
+
+    def rhs(_t, y, v):
+        d = A @ y + B @ v
+        d[2] -= p.k3x * y[0] ** 3
+        d[3] -= p.k3y * y[1] ** 3
+        return d
+
+    y = model.s[:4].copy()
+    for k in range(n - 1):
+        model.step(V[k], 0.0, h)
+        y = solve_ivp(rhs, (0, h), y, args=(V[k],), method="DOP853", rtol=1e-12,
+                      atol=1e-22).y[:, -1]
+    scale = np.array([1e-6, 1e-6, 2.5e-2, 2.5e-2])  # amplitude of x, y and velocities
+    # splitting error: second order in w h / n = 0.04 on a cubic force 7e-4 of the linear
+    # one, about 1e-6 after 20 cycles (measured 1.05e-6)
+    assert np.max(np.abs(model.s[:4] - y) / scale) < 5e-6

@@ -42,8 +42,8 @@ class CarrierRecord:
 
 
 @njit(cache=True)
-def _run(k0, n, t0, h, Phi, Gamma, s, gains, E, noise, par, st, lout, pout, rec,
-         r0):  # pragma: no cover
+def _run(k0, n, t0, h, Phi, Gamma, s, gains, E, noise, par, st, lout, pout, rec, r0,
+         cubic, nsub):  # pragma: no cover
     V = np.empty(2)
     for j in range(n):
         k = k0 + j
@@ -56,7 +56,7 @@ def _run(k0, n, t0, h, Phi, Gamma, s, gains, E, noise, par, st, lout, pout, rec,
             row[10], row[11] = pout[0], pout[1]
         V[0], V[1] = lout[0], lout[1]
         px, py = pout[0], pout[1]
-        resonator_step(Phi, Gamma, s, V, gains, E, noise[j], pout)
+        resonator_step(Phi, Gamma, s, V, gains, E, noise[j], pout, cubic, nsub, h)
         loops_step(px, py, t, h, par, st, lout)
 
 
@@ -94,7 +94,7 @@ class CarrierSimulation:
             m = min(chunk, n - done)
             noise = pl.noise.take(m)
             _run(self.k, m, 0.0, h, Phi, Gamma, pl.s, pl.gains, pl.E, noise, lo.par, lo.st,
-                 lo.out, pl.out, rec, r0)
+                 lo.out, pl.out, rec, r0, pl.cubic, pl.nsub)
             self.k += m
             done += m
         last = rec[k_end - r0]

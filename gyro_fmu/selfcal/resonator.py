@@ -17,8 +17,13 @@ excitation that reveals the relative pick-off phase). It is generated inside the
 resonator (two oscillator states) because a held, staircase ring voltage would pass
 the fast pick-off lags unseen at the sampling instants.
 
-Cubic stiffness (eqs. 20-23) is not modelled: an explicit held cubic force is far
-too inaccurate at 10 samples per carrier cycle (see the issue 5 closing note).
+Optional cubic stiffness (eqs. 20-21): k3x x^3 and k3y y^3 add to the restoring
+forces. Without it each step is the exact held-input solution (one matrix
+exponential); with it the step is split symmetrically (Strang): exact linear flow over
+h/2n, a cubic velocity kick over h/n, exact linear flow over h/2n, n times. The
+splitting is time-reversible, so it adds no artificial damping, and its error is
+second order in h/n on the (small) cubic force alone. Cross-cubic terms (eqs. 22-23)
+are not modelled.
 """
 
 from __future__ import annotations
@@ -73,6 +78,9 @@ class ResonatorParameters:
     Eyx: float = 1.0e-3  #: V/V, feed-through of Vx into the y pick-off
     Eyy: float = 2.0e-3  #: V/V, feed-through of Vy into the y pick-off
     c_ring: float = 1.0e-7  #: m/V, ring voltage seen by the pick-offs
+    k3x: float = 0.0  #: 1/(m^2 s^2), cubic stiffness of x (eq. 20; 4.2e17 = +1 Hz at 1 um)
+    k3y: float = 0.0  #: 1/(m^2 s^2), cubic stiffness of y (eq. 21)
+    cubic_substeps: int = 4  #: splitting substeps per step when k3x or k3y is not 0
     ring_amplitude: float = 0.0  #: V, each ring excitation tone (0 = off)
     ring_frequency_1: float = 3740.0  #: Hz, first ring tone (off resonance)
     ring_frequency_2: float = 4260.0  #: Hz, second ring tone
@@ -150,6 +158,8 @@ def check_resonator(p: ResonatorParameters) -> list[str]:
         if not 0.0 <= getattr(p, name) < 1.5:
             problems.append(f"{name}={getattr(p, name)!r} rad must lie in [0, 1.5): a "
                             "pick-off lag (0 = none)")
+    if p.cubic_substeps < 1:
+        problems.append(f"cubic_substeps={p.cubic_substeps!r} must be >= 1")
     if p.noise < 0.0:
         problems.append(f"noise={p.noise!r} V must be >= 0")
     if not problems and p.kxy**2 >= p.kxx * p.kyy:
@@ -199,13 +209,8 @@ def discretize(p: ResonatorParameters, Omega_z: float, h: float) -> tuple[np.nda
 
 
 @njit(cache=True)
-def resonator_step(Phi, Gamma, s, V, gains, E, noise, out):  # pragma: no cover
-    """Advance s in place over one held step and write the pick-off voltages to out.
-
-    gains = (Px, Py); E = feed-through (2x2) of the held V = (Vx, Vy); noise = 2 samples.
-    """
+def _linear(Phi, Gamma, s, V, s_new):  # pragma: no cover
     n = s.size
-    s_new = np.empty(n)
     for i in range(n):
         acc = Gamma[i, 0] * V[0] + Gamma[i, 1] * V[1]
         for j in range(n):
@@ -213,6 +218,26 @@ def resonator_step(Phi, Gamma, s, V, gains, E, noise, out):  # pragma: no cover
         s_new[i] = acc
     for i in range(n):
         s[i] = s_new[i]
+
+
+@njit(cache=True)
+def resonator_step(Phi, Gamma, s, V, gains, E, noise, out, cubic, nsub, h):  # pragma: no cover
+    """Advance s in place over one held step h and write the pick-off voltages to out.
+
+    gains = (Px, Py); E = feed-through (2x2) of the held V = (Vx, Vy); noise = 2 samples.
+    cubic = (k3x, k3y): if both are 0, Phi, Gamma are the exact step over h; otherwise
+    over h / (2 nsub), and the step is nsub Strang splittings around cubic kicks.
+    """
+    s_new = np.empty(s.size)
+    if cubic[0] == 0.0 and cubic[1] == 0.0:
+        _linear(Phi, Gamma, s, V, s_new)
+    else:
+        dt = h / nsub
+        for _ in range(nsub):
+            _linear(Phi, Gamma, s, V, s_new)
+            s[2] -= cubic[0] * s[0] ** 3 * dt
+            s[3] -= cubic[1] * s[1] ** 3 * dt
+            _linear(Phi, Gamma, s, V, s_new)
     for i in range(2):
         out[i] = gains[i] * s[4 + i] + E[i, 0] * V[0] + E[i, 1] * V[1] + noise[i]
 
@@ -270,6 +295,8 @@ class ResonatorModel:
         else:
             self.s = np.array(initial_state, float)
         self.gains = np.array([p.Px, p.Py])
+        self.cubic = np.array([p.k3x, p.k3y])
+        self.nsub = int(p.cubic_substeps)
         self.E = p.feedthrough
         self.noise = NoiseStream(p.noise, seed)
         self._key: tuple[float, float] | None = None
@@ -280,8 +307,11 @@ class ResonatorModel:
         self.out[:] = self.gains * np.array(z0) + self.noise.take(1)[0]
 
     def matrices(self, Omega_z: float, h: float) -> tuple[np.ndarray, np.ndarray]:
+        """Phi, Gamma over h, or over h / (2 nsub) with cubic stiffness."""
         if self._key != (Omega_z, h):
-            self._Phi, self._Gamma = discretize(self.p, Omega_z, h)
+            linear = self.cubic[0] == 0.0 and self.cubic[1] == 0.0
+            self._Phi, self._Gamma = discretize(
+                self.p, Omega_z, h if linear else h / (2 * self.nsub))
             self._key = (Omega_z, h)
         return self._Phi, self._Gamma
 
@@ -289,7 +319,7 @@ class ResonatorModel:
         """Hold V = (Vx, Vy) over h; returns (V_px, V_py) at the end."""
         Phi, Gamma = self.matrices(Omega_z, h)
         resonator_step(Phi, Gamma, self.s, V, self.gains, self.E, self.noise.take(1)[0],
-                       self.out)
+                       self.out, self.cubic, self.nsub, h)
         return self.out
 
     def get_state(self) -> dict:
