@@ -93,11 +93,5 @@ class GyroLoops(GyroSlave):
         self.model.step(self.Vpx, self.Vpy, t, h)
         self._publish()
 
-    def model_state(self) -> dict:
-        return self.model.get_state()
-
-    def restore_model_state(self, state: dict) -> None:
-        self.model.set_state(state)
-
     def _publish(self) -> None:
         self.__dict__.update(zip(self._names, self.model.out.tolist(), strict=True))

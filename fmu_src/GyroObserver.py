@@ -47,6 +47,8 @@ class GyroObserver(GyroSlave):
           for n in _ESTIMATED),
     )
 
+    state_holder = "observer"
+
     def setup(self) -> None:
         from gyro_fmu.observer import GyroStateObserver
         from gyro_fmu.parameters import GyroParameters
@@ -63,12 +65,6 @@ class GyroObserver(GyroSlave):
             z1, z2 = self.vx_meas, self.vy_meas
         self.observer.step(self.ux, self.uy, z1, z2, h)
         self._publish()
-
-    def model_state(self) -> dict:
-        return self.observer.get_state()
-
-    def restore_model_state(self, state: dict) -> None:
-        self.observer.set_state(state)
 
     def _publish(self) -> None:
         self.__dict__.update(zip(_OUTPUTS, self.observer.output_row(), strict=True))

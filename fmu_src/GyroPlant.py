@@ -54,11 +54,5 @@ class GyroPlant(GyroSlave):
         self.model.step(self.ux, self.uy, self.Omega_z, h)
         self._publish()
 
-    def model_state(self) -> dict:
-        return self.model.get_state()
-
-    def restore_model_state(self, state: dict) -> None:
-        self.model.set_state(state)
-
     def _publish(self) -> None:
         self.x, self.vx, self.y, self.vy, self.ax, self.ay = self.model.output_row()

@@ -74,12 +74,6 @@ class GyroResonator(GyroSlave):
         self.model.step(V, self.Omega_z, h)
         self._publish()
 
-    def model_state(self) -> dict:
-        return self.model.get_state()
-
-    def restore_model_state(self, state: dict) -> None:
-        self.model.set_state(state)
-
     def _publish(self) -> None:
         out = self.model.out
         self.Vpx, self.Vpy = float(out[0]), float(out[1])

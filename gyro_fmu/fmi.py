@@ -168,12 +168,19 @@ class GyroSlave(Fmi2Slave):
         """Advance from t to t+h and update the outputs."""
         raise NotImplementedError
 
+    #: Name of the attribute holding the library model built by setup(); its
+    #: get_state()/set_state() make the FMU state (None: no internal state).
+    state_holder: ClassVar[str | None] = "model"
+
     def model_state(self) -> Any:
         """JSON-ready internal state of the library objects (beyond the variables)."""
-        return None
+        holder = getattr(self, self.state_holder, None) if self.state_holder else None
+        return None if holder is None else holder.get_state()
 
     def restore_model_state(self, state: Any) -> None:
         """Inverse of model_state, called after setup() on the restored parameters."""
+        if state is not None and self.state_holder:
+            getattr(self, self.state_holder).set_state(state)
 
     # --- FMI callbacks -------------------------------------------------------
     def setup_experiment(
