@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
-from fmu_harness import Instance
+from fmu_harness import Instance, assert_state_round_trip
 
 from gyro_fmu.build import FMU_NAMES
 from gyro_fmu.fmi import DEBUG_CATEGORY
@@ -50,16 +50,6 @@ def test_physical_bounds_and_nominals_are_declared(models_dir):
     assert v["kxy"].min is None  # a cross stiffness may be negative
 
 
-def _run(inst: Instance, n: int, outputs: list[str], inputs=None) -> np.ndarray:
-    rows = []
-    for _ in range(n):
-        if inputs is not None:
-            inst.set(inputs(inst.t))
-        assert inst.step(H) == 0
-        rows.append(inst.get(outputs))
-    return np.array(rows)
-
-
 def _drive(t):
     return {"ux": 1e-7 * (math.sin(2 * math.pi * 2500 * t) + math.sin(2 * math.pi * 1200 * t)),
             "Omega_z": 1.0}
@@ -82,25 +72,7 @@ def test_state_restore_and_serialization_are_exact(models_dir, name):
     """Run to t1, save; run to t2; restore, run to t2 again: identical outputs bit for bit.
     The same after serialize -> deserialize into a fresh instance."""
     params, outputs, inputs = CASES[name]
-    a = Instance(models_dir / f"{name}.fmu", "a", params)
-    _run(a, 40, outputs, inputs)
-    state = a.slave.getFMUstate()
-    t1 = a.t
-    first = _run(a, 60, outputs, inputs)
-    a.slave.setFMUstate(state)
-    a.t = t1
-    again = _run(a, 60, outputs, inputs)
-    assert np.array_equal(first, again)
-    blob = a.slave.serializeFMUstate(state)
-    a.slave.freeFMUstate(state)
-    b = Instance(models_dir / f"{name}.fmu", "b", params)  # fresh instance, same parameters
-    b.slave.setFMUstate(b.slave.deSerializeFMUstate(blob))
-    b.t = t1
-    fresh = _run(b, 60, outputs, inputs)
-    assert np.array_equal(first, fresh)
-    assert b.messages(min_status=3) == ""
-    a.close()
-    b.close()
+    assert_state_round_trip(models_dir / f"{name}.fmu", params, outputs, inputs, H, 40, 60)
 
 
 # The bad-input table of the README: (FMU, parameters before init, action, what it answers)

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 from fmpy import read_model_description
-from fmu_harness import Instance
+from fmu_harness import Instance, assert_state_round_trip
 
 from gyro_fmu.fmi import DEBUG_CATEGORY, UNITS
 from gyro_fmu.selfcal.carrier import COLUMNS, CarrierSimulation
@@ -88,15 +88,6 @@ def test_initial_outputs_are_the_models(models_dir):
     loops.close()
 
 
-def _run(inst: Instance, n: int, outputs: list[str], inputs) -> np.ndarray:
-    rows = []
-    for _ in range(n):
-        inst.set(inputs(inst.t))
-        assert inst.step(H) == 0
-        rows.append(inst.get(outputs))
-    return np.array(rows)
-
-
 CASES = {
     "GyroResonator": ({"noise": 1e-3, "ring_amplitude": 1.0, "seed": 5}, ["Vpx", "Vpy"],
                       lambda t: {"Vx": math.sin(2 * math.pi * 4000 * t),
@@ -114,24 +105,7 @@ def test_state_restore_and_serialization_are_exact(models_dir, name):
     serialize -> deserialize into a fresh instance (noise generator and block included:
     6000 steps cross a 4096-sample noise block)."""
     params, outputs, inputs = CASES[name]
-    a = Instance(models_dir / f"{name}.fmu", "a", params)
-    _run(a, 4000, outputs, inputs)
-    state = a.slave.getFMUstate()
-    t1 = a.t
-    first = _run(a, 300, outputs, inputs)
-    a.slave.setFMUstate(state)
-    a.t = t1
-    again = _run(a, 300, outputs, inputs)
-    assert np.array_equal(first, again)
-    blob = a.slave.serializeFMUstate(state)
-    a.slave.freeFMUstate(state)
-    b = Instance(models_dir / f"{name}.fmu", "b", params)
-    b.slave.setFMUstate(b.slave.deSerializeFMUstate(blob))
-    b.t = t1
-    assert np.array_equal(first, _run(b, 300, outputs, inputs))
-    assert b.messages(min_status=3) == ""
-    a.close()
-    b.close()
+    assert_state_round_trip(models_dir / f"{name}.fmu", params, outputs, inputs, H, 4000, 300)
 
 
 BAD_INPUTS = [
