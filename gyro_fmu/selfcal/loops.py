@@ -25,10 +25,12 @@ which removes the zero-order hold's half-sample carrier delay.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 
 import numpy as np
 from numba import njit
+
+from .resonator import non_finite_fields
 
 #: Outputs of one loops step, in order.
 OUTPUTS = ("Vx", "Vy", "theta", "omega", "amplitude", "phase_error", "gain",
@@ -71,11 +73,7 @@ class LoopSettings:
 
     def problems(self) -> list[str]:
         """Problems (empty when usable), each naming the value and the remedy."""
-        out = []
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if not math.isfinite(v):
-                out.append(f"{f.name}={v!r} is not finite")
+        out = non_finite_fields(self)
         if out:
             return out
         if self.mode not in (0, 1, 2):

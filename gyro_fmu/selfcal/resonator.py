@@ -142,13 +142,15 @@ class ResonatorParameters:
         return asdict(self)
 
 
+def non_finite_fields(settings: object) -> list[str]:
+    """One problem per field of a settings dataclass that is not a finite number."""
+    return [f"{f.name}={v!r} is not finite: give a finite number"
+            for f in fields(settings) if not math.isfinite(v := getattr(settings, f.name))]
+
+
 def check_resonator(p: ResonatorParameters) -> list[str]:
     """Problems with p (empty when usable), each naming the value and the remedy."""
-    problems = []
-    for f in fields(p):
-        value = getattr(p, f.name)
-        if not math.isfinite(value):
-            problems.append(f"{f.name}={value!r} is not finite: give a finite number")
+    problems = non_finite_fields(p)
     if problems:
         return problems
     for name in ("f_x", "f_y", "Q_x", "Q_y", "kappa", "Bx", "By", "Px", "Py"):
