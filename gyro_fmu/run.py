@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .build import FMU_NAMES, MODELS_DIR, build_fmu
+from .build import FMU_NAMES, MODELS_DIR, ensure_current
 from .master import CoSimulationResult, run_cosimulation
 from .metrics import ESTIMATED, summarize
 from .parameters import GyroParameters, validate_for_plant
@@ -27,10 +27,8 @@ def estimate_column(name: str) -> str:
 
 
 def ensure_fmus(models_dir: Path = MODELS_DIR) -> None:
-    """Build the FMUs that are missing from models_dir."""
-    for name in FMU_NAMES:
-        if not (Path(models_dir) / f"{name}.fmu").exists():
-            build_fmu(name, Path(models_dir))
+    """Build the FMUs that are missing from models_dir or older than the sources."""
+    ensure_current(FMU_NAMES, Path(models_dir))
 
 
 def run_fmus(

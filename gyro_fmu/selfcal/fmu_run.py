@@ -125,14 +125,12 @@ def run_fmus(
     parameters only, so a nonzero rate comes from a RateProfile.fmu (kind constant)
     connected to it; at 0 the input keeps its start value 0 and no third FMU runs.
     """
-    from ..build import MODELS_DIR, build_fmu
+    from ..build import MODELS_DIR, ensure_current
     from ..master import Component, Connection, run_cosimulation
 
     models_dir = Path(MODELS_DIR if models_dir is None else models_dir)
     needed = (*SELFCAL_FMUS, "RateProfile") if Omega_z != 0.0 else SELFCAL_FMUS
-    for name in needed:
-        if not (models_dir / f"{name}.fmu").exists():
-            build_fmu(name, models_dir)
+    ensure_current(needed, models_dir)
     problems = settings.problems()
     if problems:  # the FMU would say the same at initialization, less directly
         from .loops import LoopsError
