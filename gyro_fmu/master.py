@@ -9,9 +9,10 @@ setReal (all its connected inputs): the fewest calls FMI 2.0 allows.
 
 from __future__ import annotations
 
-import shutil
+import sys
+import tempfile
 from collections.abc import Iterable, Mapping, Sequence
-from ctypes import CFUNCTYPE, c_char_p, c_double, c_int, c_size_t, c_void_p, cast
+from ctypes import c_char_p, c_void_p, cast
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,9 +26,10 @@ from fmpy.fmi2 import (  # type: ignore[attr-defined]
     fmi2CallbackFreeMemoryTYPE,
     fmi2CallbackFunctions,
     fmi2CallbackLoggerTYPE,
-    fmi2ValueReference,
     free,
 )
+
+from .stepping import GET, SET, step_loop
 
 
 class CoSimulationError(RuntimeError):
@@ -175,56 +177,21 @@ def run_cosimulation(
         plan = _Plan(instances, outputs, wiring, getters, n_steps)
         for inst in instances.values():
             _initialize(inst, start_time, stop_time, logger)
-        data = plan.data
-        base, row_bytes = data.ctypes.data, data.strides[0]
-        gets, sets, steps = plan.gets, plan.sets, plan.steps
-        for k in range(n_steps + 1):
-            t = start_time + k * step
-            addr = base + k * row_bytes
-            for get, comp, vrs, n, offset, name in gets:
-                if get(comp, vrs, n, addr + offset) > _WARNING:
-                    raise CoSimulationError(
-                        f"{name} refused fmi2GetReal at t={t:.9g} s; it said:\n"
-                        f"{logger.recent(name)}"
-                    )
-            if k == n_steps:
-                break
-            row = data[k]
-            for set_, comp, vrs, n, offset, idx, buf, buf_addr, name in sets:
-                if idx is None:
-                    status = set_(comp, vrs, n, addr + offset)
-                else:
-                    np.take(row, idx, out=buf)
-                    status = set_(comp, vrs, n, buf_addr)
-                if status > _WARNING:
-                    raise CoSimulationError(
-                        f"{name} refused fmi2SetReal at t={t:.9g} s; it said:\n"
-                        f"{logger.recent(name)}"
-                    )
-            for do_step, comp, name, fmu_name in steps:
-                if do_step(comp, t, step, 1) > _WARNING:
-                    raise CoSimulationError(
-                        f"{name} ({fmu_name}) refused the step at t={t:.9g} s "
-                        f"(fmi2DoStep returned an error status); it said:\n"
-                        f"{logger.recent(name)}"
-                    )
-        data[:, 0] = start_time + np.arange(n_steps + 1) * step
+        k, phase, index, status = plan.run(start_time, step)
+        if phase >= 0:
+            raise plan.refusal(k, phase, index, status, start_time + k * step, logger)
         return CoSimulationResult(tuple(columns), plan.result(), _units(instances))
     finally:
         for inst in instances.values():
             _release(inst)
 
 
-#: fmi2Status values above this are errors (fmi2Warning = 1).
-_WARNING = 1
-#: Raw prototypes of the FMI functions the loop calls: addresses as plain integers, so
-#: getReal can write straight into a row of the result array (no ctypes array per call).
-_GET_SET_REAL = CFUNCTYPE(c_int, c_void_p, c_void_p, c_size_t, c_void_p)
-_DO_STEP = CFUNCTYPE(c_int, c_void_p, c_double, c_double, c_int)
+#: fmi2Status codes above fmi2Warning, as the standard names them.
+_STATUS = {2: "fmi2Discard", 3: "fmi2Error", 4: "fmi2Fatal", 5: "fmi2Pending"}
 
 
 class _Plan:
-    """Memory layout and raw FMI entry points of the stepping loop.
+    """Memory layout and raw FMI entry points of the compiled stepping loop (stepping.py).
 
     Row layout: time, then each instance's outputs as one contiguous block (the recorded
     ones first, in recording order, then those read only for connections), so each
@@ -232,7 +199,7 @@ class _Plan:
     A destination whose sources sit in consecutive columns is set from the row itself;
     otherwise its values are gathered into a small buffer first. The loop makes the FMI
     calls the master always made (one getReal per FMU with outputs, one setReal per
-    connected FMU, one doStep per FMU), without fmpy's per-call ctypes conversions.
+    connected FMU, one doStep per FMU), each a direct call of the FMU's function.
     """
 
     def __init__(self, instances: dict[str, _Instance], outputs: _OutputTable, wiring: dict,
@@ -240,7 +207,7 @@ class _Plan:
         # outputs.add registered (instance, variable) -> position in inst.out_vrs
         recorded = [(name, instances[name].out_vrs[i]) for name, i in getters]
         column: dict[tuple[str, int], int] = {}
-        self.gets = []
+        gets: list[tuple[FMU2Slave, list[int], int, str]] = []
         ncol = 1
         for name, inst in instances.items():
             start = ncol
@@ -252,37 +219,98 @@ class _Plan:
                     ncol += 1
             vrs = [vr for vr in order if column[(name, vr)] >= start]
             if vrs:
-                self.gets.append((_raw(inst.slave, "fmi2GetReal", _GET_SET_REAL),
-                                  inst.slave.component, _vr_array(vrs), len(vrs), start * 8,
-                                  name))
-        self.sets = []
+                gets.append((inst.slave, vrs, start, name))
+        sets: list[tuple[FMU2Slave, list[int], list[int], str]] = []
         for dst, (in_vrs, sources) in wiring.items():
             cols = [column[(s, instances[s].out_vrs[i])] for s, i in sources]
-            slave = instances[dst].slave
-            contiguous = cols == list(range(cols[0], cols[0] + len(cols)))
-            idx = None if contiguous else np.array(cols, dtype=np.intp)
-            buf = np.empty(len(cols))
-            self.sets.append((_raw(slave, "fmi2SetReal", _GET_SET_REAL), slave.component,
-                              _vr_array(in_vrs), len(in_vrs), cols[0] * 8, idx, buf,
-                              buf.ctypes.data, dst))
-        self.steps = [(_raw(inst.slave, "fmi2DoStep", _DO_STEP), inst.slave.component, name,
-                       inst.component.fmu.name) for name, inst in instances.items()]
-        self._keep = [s[2] for s in self.gets] + [s[2] for s in self.sets]
+            sets.append((instances[dst].slave, in_vrs, cols, dst))
+        self._vrs = [np.array(vrs, dtype=np.uint32) for _, vrs, _, _ in gets + sets]
+        self.get_names = [name for *_, name in gets]
+        self.set_names = [name for *_, name in sets]
+        self.step_names = list(instances)
+        self.step_fmus = [inst.component.fmu.name for inst in instances.values()]
+        first = np.cumsum([0] + [len(cols) for _, _, cols, _ in sets])
+        self.args = (
+            _entry_points([s for s, *_ in gets], "fmi2GetReal"),
+            _components([s for s, *_ in gets]),
+            _addresses(self._vrs[: len(gets)]),
+            np.array([len(vrs) for _, vrs, _, _ in gets], dtype=np.int64),
+            np.array([start for _, _, start, _ in gets], dtype=np.int64),
+            _entry_points([s for s, *_ in sets], "fmi2SetReal"),
+            _components([s for s, *_ in sets]),
+            _addresses(self._vrs[len(gets):]),
+            np.array([len(cols) for _, _, cols, _ in sets], dtype=np.int64),
+            np.array([cols[0] if cols == list(range(cols[0], cols[0] + len(cols))) else -1
+                      for _, _, cols, _ in sets], dtype=np.int64),
+            first[:-1].astype(np.int64),
+            np.array([c for _, _, cols, _ in sets for c in cols], dtype=np.int64),
+            np.empty(int(first[-1])),
+            _entry_points([inst.slave for inst in instances.values()], "fmi2DoStep"),
+            _components([inst.slave for inst in instances.values()]),
+        )
         self.data = np.empty((n_steps + 1, ncol))
         wanted = [0] + [column[r] for r in recorded]
         self._wanted = None if wanted == list(range(ncol)) else np.array(wanted, dtype=np.intp)
+
+    def run(self, start_time: float, step: float) -> tuple[int, int, int, int]:
+        """Every communication step; (step index, phase, call index, status) of a refusal."""
+        return step_loop(self.data, start_time, step, *self.args)
+
+    def refusal(self, k: int, phase: int, index: int, status: int, t: float,
+                logger: LogCollector) -> CoSimulationError:
+        """The error for call `index` of `phase` refused at step k (time t), quoting the FMU."""
+        status_name = _STATUS.get(status, str(status))
+        if phase == GET:
+            name = self.get_names[index]
+            what = f"{name} refused fmi2GetReal at t={t:.9g} s ({status_name})"
+        elif phase == SET:
+            name = self.set_names[index]
+            what = f"{name} refused fmi2SetReal at t={t:.9g} s ({status_name})"
+        else:
+            name = self.step_names[index]
+            what = (f"{name} ({self.step_fmus[index]}) refused the step at t={t:.9g} s "
+                    f"(fmi2DoStep returned {status_name})")
+        return CoSimulationError(f"{what}; it said:\n{logger.recent(name)}")
 
     def result(self) -> np.ndarray:
         """The recorded columns in the order asked for (no copy in the default layout)."""
         return self.data if self._wanted is None else self.data[:, self._wanted]
 
 
-def _raw(slave: FMU2Slave, function: str, prototype):
-    return prototype(cast(getattr(slave.dll, function), c_void_p).value)
+def _entry_points(slaves: Iterable[FMU2Slave], function: str) -> np.ndarray:
+    """Addresses of one FMI function in each FMU's shared library."""
+    return np.array([cast(getattr(s.dll, function), c_void_p).value for s in slaves],
+                    dtype=np.int64)
 
 
-def _vr_array(vrs: list[int]):
-    return (fmi2ValueReference * len(vrs))(*vrs)
+def _components(slaves: Iterable[FMU2Slave]) -> np.ndarray:
+    """The fmi2Component handle of each instance, as an integer."""
+    return np.array([cast(s.component, c_void_p).value for s in slaves], dtype=np.int64)
+
+
+def _addresses(arrays: Sequence[np.ndarray]) -> np.ndarray:
+    return np.array([a.ctypes.data for a in arrays], dtype=np.int64)
+
+
+#: FMU archives unpacked in this process: (path, mtime, size) -> directory. Unpacking
+#: (about 60 files per FMU) cost more than a 20,000-step run's stepping of drive and rate
+#: together (benchmarks/PERF_NOTES.md); FMI resources are read-only, so every instance of
+#: an unchanged archive shares one directory, removed when the process ends.
+_UNPACKED: dict[tuple[str, int, int], tempfile.TemporaryDirectory] = {}
+
+
+def _unpacked(path: Path) -> str:
+    """The directory FMU `path` is unpacked in, unpacking it once per process and version."""
+    stat = path.stat()
+    key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
+    unpacked = _UNPACKED.get(key)
+    if unpacked is None:
+        for old in [k for k in _UNPACKED if k[0] == key[0]]:  # a rebuilt archive
+            _UNPACKED.pop(old).cleanup()
+        unpacked = tempfile.TemporaryDirectory(prefix=f"gyro_fmu_{path.stem}_")
+        extract(str(path), unzipdir=unpacked.name)
+        _UNPACKED[key] = unpacked
+    return unpacked.name
 
 
 def _instantiate(comp: Component, callbacks: fmi2CallbackFunctions) -> _Instance:
@@ -294,14 +322,20 @@ def _instantiate(comp: Component, callbacks: fmi2CallbackFunctions) -> _Instance
     md = read_model_description(str(path))
     if md.fmiVersion != "2.0" or md.coSimulation is None:
         raise CoSimulationError(f"{path} is not an FMI 2.0 co-simulation FMU")
-    unzip_dir = extract(str(path))
+    unzip_dir = _unpacked(path)
     slave = FMU2Slave(
         guid=md.guid,
         unzipDirectory=unzip_dir,
         modelIdentifier=md.coSimulation.modelIdentifier,
         instanceName=comp.name,
     )
-    slave.instantiate(callbacks=callbacks, loggingOn=True)
+    try:
+        slave.instantiate(callbacks=callbacks, loggingOn=True)
+    finally:
+        # pythonfmu puts the FMU's resources first on the host's sys.path for good: later
+        # imports, and subprocesses that inherit sys.path (Dask, multiprocessing), would
+        # take modules from inside the FMU. What it imported stays in sys.modules.
+        sys.path[:] = [p for p in sys.path if not p.startswith(unzip_dir)]
     variables = {v.name: v for v in md.modelVariables}
     return _Instance(comp, md, unzip_dir, slave, variables)
 
@@ -393,5 +427,4 @@ def _release(inst: _Instance) -> None:
         inst.slave.freeInstance()
     except Exception:
         pass
-    shutil.rmtree(inst.unzip_dir, ignore_errors=True)
 

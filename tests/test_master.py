@@ -2,13 +2,19 @@
 
 from __future__ import annotations
 
+import os
+import shutil
+import sys
 import textwrap
+import zipfile
+from pathlib import Path
 
 import numpy as np
 import pytest
 from pythonfmu.builder import FmuBuilder
 
-from gyro_fmu.master import Component, Connection, CoSimulationError, run_cosimulation
+from gyro_fmu.build import ensure_current, stale_sources
+from gyro_fmu.master import Component, Connection, CoSimulationError, _unpacked, run_cosimulation
 from gyro_fmu.run import run_fmus
 from gyro_fmu.scenario import scenario
 
@@ -67,3 +73,44 @@ def test_a_users_fmu_replaces_ours(models_dir, tmp_path):
     assert np.max(np.abs(ours["plant.x"] - theirs["plant.x"])) > 0.1 * np.max(
         np.abs(ours["plant.x"]))
     assert np.all(np.isfinite(theirs["observer.Omega_hat"]))
+
+
+def test_the_master_leaves_the_hosts_sys_path_as_it_found_it(models_dir):
+    """pythonfmu prepends each FMU's resources to sys.path; left there, subprocesses
+    (Dask workers) would import gyro_fmu from inside an unpacked FMU."""
+    before = list(sys.path)
+    run_cosimulation([Component("drive", models_dir / "TwoToneDrive.fmu")], [], 1e-4, 5e-6)
+    assert sys.path == before
+
+
+def test_an_archive_is_unpacked_once_until_it_changes(models_dir, tmp_path):
+    fmu = tmp_path / "TwoToneDrive.fmu"
+    shutil.copy(models_dir / "TwoToneDrive.fmu", fmu)
+    first = _unpacked(fmu)
+    assert _unpacked(fmu) == first and Path(first, "modelDescription.xml").is_file()
+    stat = fmu.stat()
+    os.utime(fmu, ns=(stat.st_atime_ns, stat.st_mtime_ns + 10**9))  # "rebuilt"
+    second = _unpacked(fmu)
+    assert second != first and not Path(first).exists()
+    result = run_cosimulation([Component("drive", fmu)], [], 1e-4, 5e-6)
+    assert result["drive.ux"][-1] != 0.0
+
+
+def test_a_stale_fmu_is_found_and_rebuilt(models_dir, tmp_path):
+    """An FMU built from older sources would run its old adapter on this gyro_fmu."""
+    fmu = tmp_path / "TwoToneDrive.fmu"
+    shutil.copy(models_dir / "TwoToneDrive.fmu", fmu)
+    assert stale_sources(fmu, "TwoToneDrive") == []
+    with zipfile.ZipFile(models_dir / "TwoToneDrive.fmu") as old, \
+            zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as new:
+        for item in old.infolist():
+            data = old.read(item.filename)
+            if item.filename == "resources/gyro_fmu/drive.py":
+                data += b"# an older version\n"
+            new.writestr(item, data)
+        new.writestr("resources/gyro_fmu/removed_since.py", b"")
+    assert stale_sources(fmu, "TwoToneDrive") == [
+        "resources/gyro_fmu/drive.py", "resources/gyro_fmu/removed_since.py"]
+    assert ensure_current(("TwoToneDrive",), tmp_path) == [fmu]
+    assert stale_sources(fmu, "TwoToneDrive") == []
+    assert ensure_current(("TwoToneDrive",), tmp_path) == []
