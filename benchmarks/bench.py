@@ -7,6 +7,8 @@ Measured in one run, interleaved so machine noise hits all alike:
   and the same computation in-process (gyro_fmu.inprocess, no FMI): wall time and ratio;
 - the floor: the same master loop, wiring and adapter (GyroSlave) over do-nothing slaves
   with the same variables, built into a temp dir: the cost of FMI, pythonfmu and the master;
+- the master alone: the same system over do-nothing FMUs compiled from C
+  (compiled_null.py), so the master's own share of the floor is seen;
 - the plant step (Omega_z changing every step, and constant) and the observer step alone;
 - a fresh process running the scenario through the FMUs (imports and numba cache loads
   included), and the peak memory (ru_maxrss) of a 1 s run with every output recorded.
@@ -27,6 +29,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from compiled_null import build_compiled_null_fmus
 
 from gyro_fmu.build import PACKAGE_DIR
 from gyro_fmu.inprocess import run_inprocess
@@ -162,13 +165,18 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         nulls = build_null_fmus(Path(tmp))
         floor_system = [Component(n, nulls[n]) for n in INSTANCE_FMUS]
-        times: dict[str, list[float]] = {k: [] for k in ("fmu", "lib", "floor", "plant",
-                                                          "plant_const", "observer")}
+        compiled = build_compiled_null_fmus(nulls, Path(tmp))
+        master_system = [Component(n, compiled[n]) for n in INSTANCE_FMUS]
+        times: dict[str, list[float]] = {k: [] for k in ("fmu", "lib", "floor", "master",
+                                                          "plant", "plant_const", "observer")}
+        run_cosimulation(master_system, CONNECTIONS, 10 * sc.step, sc.step)  # load the loop
         for _ in range(args.repeat):
             times["fmu"].append(_timed(lambda: run_fmus(sc)))
             times["lib"].append(_timed(lambda: run_inprocess(sc)))
             times["floor"].append(_timed(lambda: run_cosimulation(
                 floor_system, CONNECTIONS, sc.stop_time, sc.step)))
+            times["master"].append(_timed(lambda: run_cosimulation(
+                master_system, CONNECTIONS, sc.stop_time, sc.step)))
             times["plant"].append(plant_step_us(sc))
             times["plant_const"].append(plant_step_us(sc, changing=False))
             times["observer"].append(observer_step_us(sc, 5000))
@@ -183,6 +191,7 @@ def main() -> None:
         ("FMUs through the fmpy master", med["fmu"], "s", med["fmu"] / n * 1e6, "<= 2 s"),
         ("library in-process (no FMI)", med["lib"], "s", med["lib"] / n * 1e6, ""),
         ("floor: same master, null slaves", med["floor"], "s", med["floor"] / n * 1e6, ""),
+        ("master alone: compiled null FMUs", med["master"], "s", med["master"] / n * 1e6, ""),
         ("FMU / in-process", med["fmu"] / med["lib"], "x", None, "<= 1.15"),
         ("(FMU - floor) / in-process", (med["fmu"] - med["floor"]) / med["lib"], "x", None, ""),
         ("plant step, Omega_z changing", med["plant"], "us", None, "<= 10 us"),
