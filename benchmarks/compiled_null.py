@@ -22,7 +22,23 @@ _SOURCE = r"""
 #include <string.h>
 #include "fmi2Functions.h"
 
-typedef struct { int dummy; } Null;
+/* REFUSE_GET / REFUSE_SET / REFUSE_STEP = 1: that function returns fmi2Error from its
+   (REFUSE_AFTER + 1)-th call on, to test how a master reports refusals. */
+#ifndef REFUSE_GET
+#define REFUSE_GET 0
+#endif
+#ifndef REFUSE_SET
+#define REFUSE_SET 0
+#endif
+#ifndef REFUSE_STEP
+#define REFUSE_STEP 0
+#endif
+#ifndef REFUSE_AFTER
+#define REFUSE_AFTER 0
+#endif
+typedef struct { int gets, sets, steps; } Null;
+#define VERDICT(counter, refuse) \
+    ((refuse) && ++((Null*)c)->counter > REFUSE_AFTER ? fmi2Error : fmi2OK)
 
 const char* fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 const char* fmi2GetVersion(void) { return fmi2Version; }
@@ -45,12 +61,12 @@ fmi2Status fmi2Reset(fmi2Component c) { return fmi2OK; }
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
                        fmi2Real value[]) {
     memset(value, 0, n * sizeof(fmi2Real));
-    return fmi2OK;
+    return VERDICT(gets, REFUSE_GET);
 }
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
-                       const fmi2Real value[]) { return fmi2OK; }
+                       const fmi2Real value[]) { return VERDICT(sets, REFUSE_SET); }
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSetPrior) {
-    return fmi2OK;
+    return VERDICT(steps, REFUSE_STEP);
 }
 #define REFUSE(name, ...) fmi2Status name(__VA_ARGS__) { return fmi2Error; }
 REFUSE(fmi2GetInteger, fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[])
@@ -83,8 +99,13 @@ REFUSE(fmi2GetStringStatus, fmi2Component c, const fmi2StatusKind k, fmi2String*
 """
 
 
-def build_compiled_null_fmus(pythonfmu_nulls: dict[str, Path], dest: Path) -> dict[str, Path]:
-    """Instance -> .fmu: each pythonfmu null FMU's model description over the C library."""
+def build_compiled_null_fmus(models: dict[str, Path], dest: Path, refuse: str | None = None,
+                             after: int = 0) -> dict[str, Path]:
+    """Instance -> .fmu: each FMU's model description over the do-nothing C library.
+
+    refuse: "get", "set" or "step": that FMI function returns fmi2Error from its
+    (after + 1)-th call on (for tests of the master's error reporting).
+    """
     cc, headers = find_compiler(), fmi2_header_dir()
     if cc is None or headers is None:
         raise RuntimeError("a C compiler and fmpy's c-code headers are needed: "
@@ -92,10 +113,15 @@ def build_compiled_null_fmus(pythonfmu_nulls: dict[str, Path], dest: Path) -> di
     with tempfile.TemporaryDirectory() as tmp:
         src, lib = Path(tmp, "null.c"), Path(tmp, "null.so")
         src.write_text(_SOURCE)
-        subprocess.run([cc, "-O2", "-shared", "-fPIC", f"-I{headers}", str(src), "-o", str(lib)],
-                       check=True, capture_output=True)
+        flags = [f"-DREFUSE_AFTER={int(after)}"]
+        if refuse is not None:
+            if refuse not in ("get", "set", "step"):
+                raise ValueError(f"refuse={refuse!r}: use 'get', 'set', 'step' or None")
+            flags.append(f"-DREFUSE_{refuse.upper()}=1")
+        subprocess.run([cc, "-O2", "-shared", "-fPIC", f"-I{headers}", *flags, str(src),
+                        "-o", str(lib)], check=True, capture_output=True)
         out = {}
-        for instance, fmu in pythonfmu_nulls.items():
+        for instance, fmu in models.items():
             with zipfile.ZipFile(fmu) as z:
                 xml = z.read("modelDescription.xml")
             identifier = fmu.stem

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import shutil
 import sys
@@ -114,3 +115,40 @@ def test_a_stale_fmu_is_found_and_rebuilt(models_dir, tmp_path):
     assert ensure_current(("TwoToneDrive",), tmp_path) == [fmu]
     assert stale_sources(fmu, "TwoToneDrive") == []
     assert ensure_current(("TwoToneDrive",), tmp_path) == []
+
+
+def _compiled_null_builder():
+    """benchmarks/compiled_null.py: do-nothing FMUs compiled from C, optionally refusing."""
+    from gyro_fmu.doctor import find_compiler, fmi2_header_dir
+
+    if find_compiler() is None or fmi2_header_dir() is None:
+        pytest.skip("needs a C compiler and fmpy's FMI headers")
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "compiled_null.py"
+    spec = importlib.util.spec_from_file_location("compiled_null", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.build_compiled_null_fmus
+
+
+@pytest.mark.parametrize("refuse, message", [
+    (None, None),
+    ("get", r"plant refused fmi2GetReal at t=1\.5e-05 s \(fmi2Error\)"),
+    ("set", r"plant refused fmi2SetReal at t=1\.5e-05 s \(fmi2Error\)"),
+    ("step", r"plant \(CompiledGyroPlant\.fmu\) refused the step at t=1\.5e-05 s "
+             r"\(fmi2DoStep returned fmi2Error\)"),
+])
+def test_a_refused_call_stops_the_compiled_loop_at_its_step_and_is_named(
+        models_dir, tmp_path, refuse, message):
+    """A C FMU with GyroPlant's interface refuses its 4th getReal, setReal or doStep."""
+    build = _compiled_null_builder()
+    plant = build({"plant": models_dir / "GyroPlant.fmu"}, tmp_path, refuse, after=3)["plant"]
+    components = [Component("drive", models_dir / "TwoToneDrive.fmu"), Component("plant", plant)]
+    connections = [Connection("drive.ux", "plant.ux"), Connection("drive.uy", "plant.uy")]
+    if message is None:
+        result = run_cosimulation(components, connections, 1e-4, 5e-6)
+        assert result.data.shape == (21, 1 + 2 + 6)
+        assert np.all(result["plant.x"] == 0.0) and np.any(result["drive.ux"] != 0.0)
+        assert np.array_equal(result["time"], np.arange(21) * 5e-6)
+        return
+    with pytest.raises(CoSimulationError, match=message):
+        run_cosimulation(components, connections, 1e-4, 5e-6)
