@@ -38,11 +38,14 @@ class CoSimulationError(RuntimeError):
 
 @dataclass(frozen=True)
 class Component:
-    """One FMU instance: a name used in connections, its file, and parameter values."""
+    """One FMU instance: a name used in connections, its file, parameter values, and
+    values for inputs that no connection drives (set before initialization; an FMI 2.0
+    input keeps the last value set, so they hold for the whole run)."""
 
     name: str
     fmu: Path
     parameters: Mapping[str, float | int] = field(default_factory=dict)
+    inputs: Mapping[str, float | int] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -175,8 +178,9 @@ def run_cosimulation(
         wiring = _wire(outputs, connections)
         columns, getters = _recording(outputs, record)
         plan = _Plan(instances, outputs, wiring, getters, n_steps)
-        for inst in instances.values():
-            _initialize(inst, start_time, stop_time, logger)
+        for name, inst in instances.items():
+            connected = set(wiring[name][0]) if name in wiring else set()
+            _initialize(inst, start_time, stop_time, logger, connected)
         k, phase, index, status = plan.run(start_time, step)
         if phase >= 0:
             raise plan.refusal(k, phase, index, status, start_time + k * step, logger)
@@ -393,32 +397,46 @@ def _units(instances: dict[str, _Instance]) -> dict[str, str]:
             for v in inst.variables.values()}
 
 
-def _initialize(inst: _Instance, start_time: float, stop_time: float, logger: LogCollector):
+def _initialize(inst: _Instance, start_time: float, stop_time: float, logger: LogCollector,
+                connected: set[int]) -> None:
+    """Set up the experiment, set parameters and the values of unconnected inputs, and
+    initialize. connected: value references of the inputs that connections drive."""
     slave, name = inst.slave, inst.component.name
+    starts = [(pname, value, "parameter") for pname, value in inst.component.parameters.items()]
+    starts += [(iname, value, "input") for iname, value in inst.component.inputs.items()]
     try:
         slave.setupExperiment(startTime=start_time, stopTime=stop_time)
-        for pname, value in inst.component.parameters.items():
-            v = inst.variables.get(pname)
-            if v is None or v.causality != "parameter":
-                params = sorted(k for k, x in inst.variables.items() if x.causality == "parameter")
+        for var, value, causality in starts:
+            v = inst.variables.get(var)
+            if v is None or v.causality != causality:
+                have = sorted(k for k, x in inst.variables.items() if x.causality == causality)
                 raise CoSimulationError(
-                    f"{name}: {inst.component.fmu.name} has no parameter {pname!r}; "
-                    f"its parameters are {params}"
+                    f"{name}: {inst.component.fmu.name} has no {causality} {var!r}; "
+                    f"its {causality}s are {have}"
                 )
-            if v.type == "Real":
-                slave.setReal([v.valueReference], [float(value)])
-            elif v.type in ("Integer", "Enumeration"):
-                slave.setInteger([v.valueReference], [int(value)])
-            elif v.type == "Boolean":
-                slave.setBoolean([v.valueReference], [bool(value)])
-            else:
-                slave.setString([v.valueReference], [str(value)])
+            if v.valueReference in connected:
+                raise CoSimulationError(
+                    f"{name}.{var} is driven by a connection and also given the value "
+                    f"{value!r}: drop one of the two"
+                )
+            _set_value(slave, v, value)
         slave.enterInitializationMode()
         slave.exitInitializationMode()
     except FMICallException as exc:
         raise CoSimulationError(
             f"{name}: initialization failed ({exc}); it said:\n{logger.recent(name)}"
         ) from None
+
+
+def _set_value(slave: FMU2Slave, v, value: float | int | bool | str) -> None:
+    if v.type == "Real":
+        slave.setReal([v.valueReference], [float(value)])
+    elif v.type in ("Integer", "Enumeration"):
+        slave.setInteger([v.valueReference], [int(value)])
+    elif v.type == "Boolean":
+        slave.setBoolean([v.valueReference], [bool(value)])
+    else:
+        slave.setString([v.valueReference], [str(value)])
 
 
 def _release(inst: _Instance) -> None:

@@ -33,6 +33,11 @@ def test_bad_systems_get_errors_that_name_the_problem(models_dir, tmp_path):
         ([Component("plant", models_dir / "GyroPlant.fmu", {"kzz": 1.0})], [],
          "has no parameter 'kzz'"),
         ([drive, drive], [], "instance names must be unique"),
+        ([Component("plant", models_dir / "GyroPlant.fmu", inputs={"kxx": 1.0})], [],
+         "has no input 'kxx'; its inputs are \\['Omega_z', 'ux', 'uy'\\]"),
+        ([drive, Component("plant", models_dir / "GyroPlant.fmu", inputs={"ux": 1e-7})],
+         [Connection("drive.ux", "plant.ux")],
+         "plant.ux is driven by a connection and also given the value 1e-07"),
     ]
     for components, connections, message in cases:
         with pytest.raises(CoSimulationError, match=message):

@@ -121,16 +121,14 @@ def run_fmus(
     points from record_from (s) to the end, both included. Missing FMUs are built
     into models_dir (default gyro_fmu.build.MODELS_DIR).
 
-    The constant rate Omega_z enters through the resonator's input: the master sets
-    parameters only, so a nonzero rate comes from a RateProfile.fmu (kind constant)
-    connected to it; at 0 the input keeps its start value 0 and no third FMU runs.
+    The constant rate Omega_z is the value of the resonator's unconnected input
+    Omega_z, set once before initialization (an FMI 2.0 input holds its last value).
     """
     from ..build import MODELS_DIR, ensure_current
     from ..master import Component, Connection, run_cosimulation
 
     models_dir = Path(MODELS_DIR if models_dir is None else models_dir)
-    needed = (*SELFCAL_FMUS, "RateProfile") if Omega_z != 0.0 else SELFCAL_FMUS
-    ensure_current(needed, models_dir)
+    ensure_current(SELFCAL_FMUS, models_dir)
     problems = settings.problems()
     if problems:  # the FMU would say the same at initialization, less directly
         from .loops import LoopsError
@@ -138,15 +136,12 @@ def run_fmus(
         raise LoopsError("; ".join(problems))
     components = [
         Component("resonator", models_dir / "GyroResonator.fmu",
-                  {**fmu_parameters(resonator), "seed": int(seed)}),
+                  {**fmu_parameters(resonator), "seed": int(seed)},
+                  inputs={"Omega_z": float(Omega_z)}),
         Component("loops", models_dir / "GyroLoops.fmu", fmu_parameters(settings, LOOPS_RENAMED)),
     ]
     connections = [Connection(f"loops.{v}", f"resonator.{v}") for v in ("Vx", "Vy")]
     connections += [Connection(f"resonator.{v}", f"loops.{v}") for v in ("Vpx", "Vpy")]
-    if Omega_z != 0.0:
-        components.append(Component("rate", models_dir / "RateProfile.fmu",
-                                    {"kind": 1, "offset": float(Omega_z)}))
-        connections.append(Connection("rate.Omega_z", "resonator.Omega_z"))
     record = [f"loops.{v}" for v in LOOP_OUTPUTS] + ["resonator.Vpx", "resonator.Vpy"]
     n = round(duration / step)
     result = run_cosimulation(components, connections, n * step, step, record=record)
