@@ -9,9 +9,12 @@ setReal (all its connected inputs): the fewest calls FMI 2.0 allows.
 
 from __future__ import annotations
 
+import signal
 import sys
 import tempfile
-from collections.abc import Iterable, Mapping, Sequence
+import threading
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from ctypes import c_char_p, c_void_p, cast
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -190,6 +193,30 @@ def run_cosimulation(
             _release(inst)
 
 
+#: Communication steps per call of the compiled loop (~0.1 s of the default system).
+_CHUNK = 2000
+
+
+@contextmanager
+def _interrupt_between_chunks() -> Iterator[Callable[[], bool]]:
+    """Record Ctrl-C instead of raising it, so that it stops the loop between chunks.
+
+    Raised at once, KeyboardInterrupt would land inside an FMU's Python callback,
+    where pythonfmu turns it into fmi2Fatal. Only in the main thread, and only while
+    Python's default handler is installed; elsewhere nothing changes.
+    """
+    if (threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
+        yield lambda: False
+        return
+    caught: list[int] = []
+    signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield lambda: bool(caught)
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 #: fmi2Status codes above fmi2Warning, as the standard names them.
 _STATUS = {2: "fmi2Discard", 3: "fmi2Error", 4: "fmi2Fatal", 5: "fmi2Pending"}
 
@@ -257,8 +284,22 @@ class _Plan:
         self._wanted = None if wanted == list(range(ncol)) else np.array(wanted, dtype=np.intp)
 
     def run(self, start_time: float, step: float) -> tuple[int, int, int, int]:
-        """Every communication step; (step index, phase, call index, status) of a refusal."""
-        return step_loop(self.data, start_time, step, *self.args)
+        """Every communication step; (step index, phase, call index, status) of a refusal.
+
+        Runs in chunks of _CHUNK steps; Ctrl-C is held off until the end of a chunk
+        (_interrupt_between_chunks), then raised as KeyboardInterrupt.
+        """
+        n = self.data.shape[0] - 1
+        with _interrupt_between_chunks() as interrupted:
+            for first in range(0, n + 1, _CHUNK):
+                outcome = step_loop(self.data, start_time, step, first,
+                                    min(first + _CHUNK - 1, n), *self.args)
+                if outcome[1] >= 0:
+                    return outcome
+                if interrupted():
+                    raise KeyboardInterrupt(f"co-simulation interrupted at t = "
+                                            f"{start_time + outcome[0] * step:.9g} s")
+        return outcome
 
     def refusal(self, k: int, phase: int, index: int, status: int, t: float,
                 logger: LogCollector) -> CoSimulationError:

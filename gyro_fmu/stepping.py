@@ -50,26 +50,27 @@ def _fmi2_do_step(typingctx, function, component, t, h, no_set_state_prior):
 
 
 @njit(cache=True)
-def step_loop(data: np.ndarray, start_time: float, h: float,
+def step_loop(data: np.ndarray, start_time: float, h: float, first: int, last: int,
               get_fn: np.ndarray, get_comp: np.ndarray, get_vrs: np.ndarray,
               get_n: np.ndarray, get_col: np.ndarray,
               set_fn: np.ndarray, set_comp: np.ndarray, set_vrs: np.ndarray,
               set_n: np.ndarray, set_col: np.ndarray, set_first: np.ndarray,
               gather: np.ndarray, buf: np.ndarray,
               step_fn: np.ndarray, step_comp: np.ndarray) -> tuple[int, int, int, int]:
-    """Fill data[k] for k = 0..n (n = len(data) - 1) and step every FMU n times.
+    """Fill data[k] for k = first..last and step every FMU from each of those t_k but
+    the final one (k = n = len(data) - 1): the master calls it in chunks.
 
     Row k: time, then each FMU's outputs read at t_k = start_time + k h. Inputs of FMU i
     come from the row: columns set_col[i].. when consecutive (set_col >= 0), otherwise
     gathered through gather[set_first[i]:set_first[i] + set_n[i]] into buf first.
     Returns (k, phase, index, status) of the first call whose status exceeds fmi2Warning,
-    or (n, -1, -1, 0) when every call succeeded.
+    or (last, -1, -1, 0) when every call succeeded.
     """
     n = data.shape[0] - 1
     row_addr = data.ctypes.data
     row_bytes = data.strides[0]
     buf_addr = buf.ctypes.data
-    for k in range(n + 1):
+    for k in range(first, last + 1):
         t = start_time + k * h
         addr = row_addr + k * row_bytes
         data[k, 0] = t
@@ -95,4 +96,4 @@ def step_loop(data: np.ndarray, start_time: float, h: float,
             status = _fmi2_do_step(step_fn[i], step_comp[i], t, h, 1)
             if status > 1:
                 return k, STEP, i, status
-    return n, -1, -1, 0
+    return last, -1, -1, 0

@@ -5,8 +5,10 @@ from __future__ import annotations
 import importlib.util
 import os
 import shutil
+import signal
 import sys
 import textwrap
+import threading
 import zipfile
 from pathlib import Path
 
@@ -157,3 +159,20 @@ def test_a_refused_call_stops_the_compiled_loop_at_its_step_and_is_named(
         return
     with pytest.raises(CoSimulationError, match=message):
         run_cosimulation(components, connections, 1e-4, 5e-6)
+
+
+def test_ctrl_c_stops_the_run_between_chunks_with_a_keyboard_interrupt(models_dir):
+    """Raised inside an FMU's Python callback, Ctrl-C became fmi2Fatal (pythonfmu);
+    the master holds it until the end of a chunk of steps and raises it there."""
+    if signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        pytest.skip("the default SIGINT handler is not installed")
+    drive = Component("drive", models_dir / "TwoToneDrive.fmu")
+    timer = threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt, match=r"co-simulation interrupted at t = "):
+            run_cosimulation([drive], [], 5.0, 5e-6)  # 1e6 steps, several seconds
+    finally:
+        timer.cancel()
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert run_cosimulation([drive], [], 1e-4, 5e-6)["drive.ux"][-1] != 0.0
