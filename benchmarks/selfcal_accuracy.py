@@ -2,8 +2,10 @@
 
     python benchmarks/selfcal_accuracy.py            # every study, ~3 min
     python benchmarks/selfcal_accuracy.py --seeds 3 --only headline
+    python benchmarks/selfcal_accuracy.py --only uncertainty --sigma-seeds 16
 
-Studies: headline (default preset, realistic noise, several seeds), noise, record
+Studies: headline (default preset, realistic noise, several seeds), whether the
+reported 1-sigmas match the scatter over seeds, noise, record
 length, model mismatch, earth rate, temperature-like drift. The rate table is run on
 the same instrument with the same feed-forward correction; "truth" is the rate table
 without noise (the instrument's bias and scale factor), and a noisy rate table with
@@ -38,6 +40,8 @@ def compare(res: ResonatorParameters, cfg: SelfCalConfig, noisy_table: bool = Fa
     out = {
         "bias": sc.bias, "sigma_bias": sc.sigma_bias, "sf": sc.scale_factor,
         "sigma_sf_ppm": sc.sigma_scale_factor / sc.scale_factor * 1e6,
+        "sigma_bias_rho": sc.sigma_bias_rho,
+        "sigma_sf_rho_ppm": sc.sigma_scale_factor_rho / sc.scale_factor * 1e6,
         "rt_bias": truth.bias, "rt_sf": truth.scale_factor,
         "d_bias": sc.bias - truth.bias,
         "d_sf_ppm": (sc.scale_factor / truth.scale_factor - 1) * 1e6,
@@ -155,12 +159,40 @@ def rate_noise(noise: float = NOISE, duration: float = 40.0) -> None:
               f"(angle random walk {math.degrees(density) / math.sqrt(2) * 60:.2f} deg/sqrt(h))")
 
 
+def uncertainty(seeds: int) -> None:
+    """Are the reported 1-sigmas right? RMS of error / sigma over seeds should be 1."""
+    print(f"\n## Reported 1-sigma against the scatter over {seeds} seeds (noise {NOISE} V)")
+    print(f"{'seed':<6} {'bias - table (1σ, of it rho)':<36} {'SF - table ppm (1σ, of it rho)'}")
+    rows = []
+    for seed in range(1, seeds + 1):
+        r = compare(replace(ResonatorParameters(), noise=NOISE), SelfCalConfig(seed=seed))
+        rows.append(r)
+        print(f"{seed:<6} {r['d_bias']:+.2e} ({r['sigma_bias']:.1e}, {r['sigma_bias_rho']:.1e})"
+              f"       {r['d_sf_ppm']:+7.1f} ({r['sigma_sf_ppm']:5.1f}, "
+              f"{r['sigma_sf_rho_ppm']:4.1f})")
+
+    def rms(values) -> float:
+        return float(np.sqrt(np.mean(np.square(values))))
+
+    for what, d, s_total, s_rho in (("bias", "d_bias", "sigma_bias", "sigma_bias_rho"),
+                                    ("SF", "d_sf_ppm", "sigma_sf_ppm", "sigma_sf_rho_ppm")):
+        err = np.array([r[d] for r in rows])
+        total = np.array([r[s_total] for r in rows])
+        fit_only = np.sqrt(np.maximum(total**2 - np.array([r[s_rho] for r in rows])**2, 0.0))
+        print(f"{what}: RMS(error / 1-sigma) {rms(err / total):.2f} with rho's part, "
+              f"{rms(err / fit_only):.2f} with the fit's alone (1.00 +- "
+              f"{1 / math.sqrt(2 * seeds):.2f} expected)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=5)
-    ap.add_argument("--only", choices=("noise", "headline", "factors", "earth", "drift"))
+    ap.add_argument("--sigma-seeds", type=int, default=16)
+    ap.add_argument("--only", choices=("noise", "headline", "uncertainty", "factors", "earth",
+                                       "drift"))
     a = ap.parse_args()
     studies = {"noise": rate_noise, "headline": lambda: headline(a.seeds),
+               "uncertainty": lambda: uncertainty(a.sigma_seeds),
                "factors": one_at_a_time,
                "earth": earth_rate, "drift": drift}
     for name, fn in studies.items():

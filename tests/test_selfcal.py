@@ -17,7 +17,7 @@ from gyro_fmu.cli import main
 from gyro_fmu.selfcal.carrier import CarrierSimulation
 from gyro_fmu.selfcal.estimator import transfer
 from gyro_fmu.selfcal.loops import LoopsError, LoopSettings
-from gyro_fmu.selfcal.phasors import PhasorError, phasors
+from gyro_fmu.selfcal.phasors import PhasorError, phasors, phasors_and_variances
 from gyro_fmu.selfcal.ratetable import rate_table
 from gyro_fmu.selfcal.resonator import ResonatorParameters, system_matrices
 from gyro_fmu.selfcal.sequence import SelfCalConfig, self_calibrate
@@ -90,6 +90,30 @@ def test_phasors_recover_a_multitone(periods: int) -> None:
     assert np.max(np.abs(est - c)) < (1e-9 if periods == 2 else 1e-5)
     with pytest.raises(PhasorError, match="whole number of periods"):
         phasors(s[:-10], t0, h, 2 * math.pi * f_ref, spacing, js)
+
+
+@pytest.mark.parametrize("periods", [1, 2])
+def test_phasor_variances_match_monte_carlo(periods: int) -> None:
+    """E|dc|^2 predicted from one record's residual against the scatter over 200 records
+    of white noise (rectangular and Hann weights). The mean of 200 exponential draws
+    has a 7 % standard error: 25 % is 3.5 of them."""
+    h, f_ref, spacing, std = 25e-6, 4000.0, 10.0, 1e-2
+    n = round(periods / spacing / h)
+    t0 = 0.3
+    t = t0 + np.arange(n) * h
+    js = np.array([-3, 0, 3])
+    c = np.array([0.3 + 0.1j, 1.0, -0.05j])
+    clean = np.real(sum(ci * np.exp(1j * 2 * math.pi * (f_ref + j * spacing) * t)
+                        for ci, j in zip(c, js, strict=True)))
+    rng = np.random.default_rng(5)
+    errors, predicted = [], []
+    for _ in range(200):
+        est, var = phasors_and_variances(clean + std * rng.standard_normal(n), t0, h,
+                                         2 * math.pi * f_ref, spacing, js)
+        errors.append(np.abs(est - c) ** 2)
+        predicted.append(var)
+    ratio = np.mean(errors, axis=0) / np.mean(predicted, axis=0)
+    assert np.all(np.abs(ratio - 1.0) < 0.25), ratio
 
 
 @pytest.fixture(scope="module")

@@ -29,25 +29,62 @@ def phasors(signal: np.ndarray, t0: float, h: float, omega_ref: float, spacing: 
     number of periods 1/spacing (the grid is then orthogonal over the record); two or
     more periods give the Hann weight.
     """
-    n = len(signal)
-    periods = n * h * spacing
-    m = round(periods)
-    if m < 1 or abs(periods - m) > 1e-6:
-        raise PhasorError(
-            f"record of {n} samples x {h} s = {n * h} s is not a whole number of periods "
-            f"of the {spacing} Hz grid: record a multiple of {1 / spacing} s"
-        )
-    harmonics = np.asarray(harmonics, dtype=int)
-    k = np.arange(n)
-    # Hann when the grid is at least 2 FFT bins wide: its bins are then orthogonal and
-    # its sidelobes fall as 1/k^3. With 1 bin per grid step the Hann normal equations
-    # are nearly singular, so a rectangular (exactly orthogonal) weight is used.
-    window = np.sin(math.pi * k / n) ** 2 if m >= 2 else np.ones(n)
-    z = signal * window * np.exp(-1j * omega_ref * (t0 + k * h))
-    Z = np.fft.fft(z)
-    W = np.fft.fft(window)
-    dw = 2 * math.pi * spacing
-    rhs = Z[(harmonics * m) % n] * np.exp(-1j * harmonics * dw * t0)
-    diff = harmonics[None, :] - harmonics[:, None]  # l - j
-    gram = np.conj(W[(diff * m) % n]) * np.exp(1j * diff * dw * t0)
-    return 2.0 * np.linalg.solve(gram, rhs)
+    return _Fit(signal, t0, h, omega_ref, spacing, harmonics).phasors
+
+
+def phasors_and_variances(signal: np.ndarray, t0: float, h: float, omega_ref: float,
+                          spacing: float, harmonics: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """phasors(...) and E|dc_j|^2 of each, for white noise of the variance the fit leaves.
+
+    The noise variance is the window-weighted mean square of the residual (the record
+    minus the fitted tones); the estimates' covariance is 4 G^-1 C G^-H, with G the
+    weighted Gram matrix of the grid and C that of the squared weight times the noise
+    variance (the same construction, FFT of w^2 instead of w).
+    """
+    fit = _Fit(signal, t0, h, omega_ref, spacing, harmonics)
+    k = np.arange(len(signal))
+    t = t0 + k * h
+    model = np.zeros(len(signal))
+    for j, c in zip(fit.harmonics, fit.phasors, strict=True):
+        model += np.real(c * np.exp(1j * (omega_ref + j * fit.dw) * t))
+    dof = max(len(signal) - 2 * len(fit.harmonics), 1)
+    noise_var = float(np.sum(fit.window * (signal - model) ** 2) / np.sum(fit.window)
+                      * len(signal) / dof)
+    C = noise_var * fit.gram_of(fit.window ** 2)
+    G_inv = np.linalg.inv(fit.gram)
+    cov = 4.0 * G_inv @ C @ G_inv.conj().T
+    return fit.phasors, np.real(np.diag(cov)).copy()
+
+
+class _Fit:
+    """The weighted joint least-squares fit of phasors on a frequency grid."""
+
+    def __init__(self, signal: np.ndarray, t0: float, h: float, omega_ref: float,
+                 spacing: float, harmonics: np.ndarray) -> None:
+        n = len(signal)
+        periods = n * h * spacing
+        m = round(periods)
+        if m < 1 or abs(periods - m) > 1e-6:
+            raise PhasorError(
+                f"record of {n} samples x {h} s = {n * h} s is not a whole number of "
+                f"periods of the {spacing} Hz grid: record a multiple of {1 / spacing} s"
+            )
+        self.n, self.m, self.t0 = n, m, t0
+        self.harmonics = np.asarray(harmonics, dtype=int)
+        self.dw = 2 * math.pi * spacing
+        k = np.arange(n)
+        # Hann when the grid is at least 2 FFT bins wide: its bins are then orthogonal and
+        # its sidelobes fall as 1/k^3. With 1 bin per grid step the Hann normal equations
+        # are nearly singular, so a rectangular (exactly orthogonal) weight is used.
+        self.window = np.sin(math.pi * k / n) ** 2 if m >= 2 else np.ones(n)
+        z = signal * self.window * np.exp(-1j * omega_ref * (t0 + k * h))
+        Z = np.fft.fft(z)
+        rhs = Z[(self.harmonics * m) % n] * np.exp(-1j * self.harmonics * self.dw * t0)
+        self.gram = self.gram_of(self.window)
+        self.phasors = 2.0 * np.linalg.solve(self.gram, rhs)
+
+    def gram_of(self, weight: np.ndarray) -> np.ndarray:
+        """sum_k weight_k exp(-i (j - l) dw t_k) for each pair of harmonics (j, l)."""
+        W = np.fft.fft(weight)
+        diff = self.harmonics[None, :] - self.harmonics[:, None]  # l - j
+        return np.conj(W[(diff * self.m) % self.n]) * np.exp(1j * diff * self.dw * self.t0)

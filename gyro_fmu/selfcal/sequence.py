@@ -28,7 +28,7 @@ from .estimator import (
     fit_sidebands,
 )
 from .loops import LoopSettings
-from .phasors import phasors
+from .phasors import phasors, phasors_and_variances
 from .resonator import ResonatorParameters
 
 
@@ -68,6 +68,9 @@ class FeedForward:
     E: np.ndarray
     rho: complex
     imag_E: np.ndarray  #: imaginary parts left after the delay (quality check)
+    #: 1-sigma of Re(rho) and of Im(rho) each, from the pick-off noise the ring-tone
+    #: fit leaves (rho's error is circular: the two are equal and uncorrelated)
+    sigma_rho: float = 0.0
 
 
 def measure_feedforward(res: ResonatorParameters, cfg: SelfCalConfig) -> FeedForward:
@@ -84,7 +87,10 @@ def measure_feedforward(res: ResonatorParameters, cfg: SelfCalConfig) -> FeedFor
     offs = {"x": lo.excitation_offset_x, "y": lo.excitation_offset_y, "ring": cfg.ring_offset}
     grid = 10.0
     harm = np.array(sorted({s * round(o / grid) for o in offs.values() for s in (-1, 1)} | {0}))
-    ph = {n: phasors(cols[n], t0, h, w0, grid, harm) for n in ("Vx", "Vy", "Vpx", "Vpy")}
+    ph = {n: phasors(cols[n], t0, h, w0, grid, harm) for n in ("Vx", "Vy")}
+    var = {}
+    for n in ("Vpx", "Vpy"):
+        ph[n], var[n] = phasors_and_variances(cols[n], t0, h, w0, grid, harm)
     index = {j: i for i, j in enumerate(harm)}
     E = np.zeros((2, 2), complex)
     for col, drive in enumerate(("x", "y")):
@@ -99,11 +105,15 @@ def measure_feedforward(res: ResonatorParameters, cfg: SelfCalConfig) -> FeedFor
         for row in range(2):
             sol = np.linalg.solve(A, np.array([e[1][row] for e in entries]))
             E[row, col] = sol[0]
-    ratios = []
+    ratios, ratio_vars = [], []
     for sgn in (-1, 1):
         j = index[sgn * round(offs["ring"] / grid)]
-        ratios.append(ph["Vpy"][j] / ph["Vpx"][j])
-    return FeedForward(E.real.copy(), complex(np.mean(ratios)), E.imag.copy())
+        r = ph["Vpy"][j] / ph["Vpx"][j]
+        ratios.append(r)  # dr/r = dVpy/Vpy - dVpx/Vpx, the two channels' noise independent
+        ratio_vars.append(abs(r) ** 2 * (var["Vpy"][j] / abs(ph["Vpy"][j]) ** 2
+                                         + var["Vpx"][j] / abs(ph["Vpx"][j]) ** 2))
+    sigma_rho = math.sqrt(sum(ratio_vars) / 4 / 2)  # mean of two; E|d rho|^2 split Re/Im
+    return FeedForward(E.real.copy(), complex(np.mean(ratios)), E.imag.copy(), sigma_rho)
 
 
 def record_mode(res: ResonatorParameters, cfg: SelfCalConfig, mode: int,
@@ -152,12 +162,19 @@ def mode_phasors(rec: CarrierRecord, mode: int, ff: FeedForward,
 
 @dataclass
 class SelfCalResult:
-    """Everything the calibration found, with 1-sigma uncertainties."""
+    """Everything the calibration found, with 1-sigma uncertainties.
+
+    sigma_bias and sigma_scale_factor are the totals: the sideband fit's own (delta
+    method) and rho's (step 1's measurement error carried through a refit), which
+    are independent; the *_rho fields give rho's part alone.
+    """
 
     bias: float  #: rad/s
     scale_factor: float  #: V/(rad/s)
     sigma_bias: float
     sigma_scale_factor: float
+    sigma_bias_rho: float
+    sigma_scale_factor_rho: float
     physical: dict[str, float]
     rho: complex
     feedthrough: np.ndarray
@@ -173,6 +190,8 @@ class SelfCalResult:
             "bias_rad_s": self.bias, "sigma_bias_rad_s": self.sigma_bias,
             "scale_factor_V_per_rad_s": self.scale_factor,
             "sigma_scale_factor_V_per_rad_s": self.sigma_scale_factor,
+            "sigma_bias_from_rho_rad_s": self.sigma_bias_rho,
+            "sigma_scale_factor_from_rho_V_per_rad_s": self.sigma_scale_factor_rho,
             "relative_pickoff_gain": abs(self.rho),
             "relative_pickoff_phase_rad": float(np.angle(self.rho)),
             "feedthrough_V_per_V": self.feedthrough.tolist(),
@@ -202,7 +221,14 @@ def estimate(data: list[ModeData], ff: FeedForward, cfg: SelfCalConfig,
     omega_r, amp = m1.omega_osc, lo.amplitude
     bias, sf = bias_and_scale_factor(fit, omega_r, amp)
     s_bias, s_sf = bias_and_scale_factor_sigma(fit, omega_r, amp)
+    moved = []  # rho moved by its 1-sigma along Re and along Im, refitted
+    for d_rho in (ff.sigma_rho, 1j * ff.sigma_rho) if ff.sigma_rho > 0.0 else ():
+        refit = fit_sidebands(data, ff.rho + d_rho, kappa, cfg.step, lo.plant_gain,
+                              lo.q_nominal, cfg.fit_feedthrough, cfg.fixed_rate)
+        moved.append(np.subtract(bias_and_scale_factor(refit, omega_r, amp), (bias, sf)))
+    s_bias_rho, s_sf_rho = np.sqrt(np.sum(np.square(moved), axis=0)) if moved else (0.0, 0.0)
     wall = time.perf_counter() - start if start is not None else float("nan")
-    return SelfCalResult(bias, sf, s_bias, s_sf, fit.physical(), ff.rho, ff.E, omega_r, amp,
-                         fit.rms_residual, wall, fit, data)
+    return SelfCalResult(bias, sf, math.hypot(s_bias, s_bias_rho), math.hypot(s_sf, s_sf_rho),
+                         float(s_bias_rho), float(s_sf_rho), fit.physical(), ff.rho, ff.E,
+                         omega_r, amp, fit.rms_residual, wall, fit, data)
 
