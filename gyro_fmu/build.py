@@ -50,7 +50,10 @@ def build_fmu(name: str, dest: Path = MODELS_DIR, reference: bool = True) -> Pat
     if reference:
         from .reference import write_reference
 
-        write_reference(path)
+        write_reference(path)  # runs the FMU here: its kernels are compiled and cached
+    from .kernel_cache import add_to_fmu
+
+    add_to_fmu(path, PACKAGE_DIR)
     return path
 
 
