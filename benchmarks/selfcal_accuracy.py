@@ -104,6 +104,15 @@ def one_at_a_time() -> None:
               compare(replace(base, k3x=4.2e15, k3y=4.2e15), SelfCalConfig())))
     print(row("no noise, 5 tones (0.2..1.0 Hz)",
               compare(base, SelfCalConfig(sideband_count=5))))
+    slow = SelfCalConfig()
+    slow = replace(slow, loops=replace(slow.loops, agc_bandwidth=0.5))
+    print(row("no noise, AGC 0.5 Hz (table dwell 6 s)", compare(base, slow)))
+    ff = FeedForward(np.zeros((2, 2)), 1.0, np.zeros((2, 2)))
+    short = rate_table(base, ff, slow, dwell=1.0, average=0.5)
+    settled = rate_table(base, ff, slow)
+    off = (short.scale_factor / settled.scale_factor - 1) * 1e6
+    print(f"   the same table with 1 s dwells: SF {off:+.1f} ppm, unsettled "
+          f"{short.unsettled:.1e} rad/s (settled: {settled.unsettled:.1e})")
 
 
 def earth_rate() -> None:

@@ -20,7 +20,7 @@ from gyro_fmu.selfcal.loops import LoopsError, LoopSettings
 from gyro_fmu.selfcal.phasors import PhasorError, phasors, phasors_and_variances
 from gyro_fmu.selfcal.ratetable import rate_table
 from gyro_fmu.selfcal.resonator import ResonatorParameters, system_matrices
-from gyro_fmu.selfcal.sequence import SelfCalConfig, self_calibrate
+from gyro_fmu.selfcal.sequence import FeedForward, SelfCalConfig, self_calibrate
 
 #: Short records, few sidebands: 0.4 Hz spacing keeps 2 Hann bins per step in 5 s.
 SMALL = SelfCalConfig(settle=3.0, record=5.0, sideband_spacing=0.4, sideband_count=3,
@@ -116,6 +116,20 @@ def test_phasor_variances_match_monte_carlo(periods: int) -> None:
     assert np.all(np.abs(ratio - 1.0) < 0.25), ratio
 
 
+def test_rate_table_dwells_long_enough_for_slow_loops() -> None:
+    """With a 0.5 Hz AGC a 1 s dwell ends before the loops settle after a rate step; the
+    default dwell follows the slowest loop and its unsettled figure says so."""
+    cfg = replace(SMALL, loops=replace(SMALL.loops, agc_bandwidth=0.5))
+    ff = FeedForward(np.zeros((2, 2)), 1.0, np.zeros((2, 2)))
+    rates = (-0.5, 0.0, 0.5)
+    short = rate_table(TRUE, ff, cfg, rates=rates, dwell=1.0, average=0.5)
+    auto = rate_table(TRUE, ff, cfg, rates=rates)
+    long = rate_table(TRUE, ff, cfg, rates=rates, dwell=16.0, average=8.0)
+    assert auto.scale_factor == pytest.approx(long.scale_factor, rel=1e-7)
+    assert abs(short.scale_factor / long.scale_factor - 1) > 1e-5  # 28 ppm measured
+    assert short.unsettled > 1000 * auto.unsettled
+
+
 @pytest.fixture(scope="module")
 def clean_calibration():
     return self_calibrate(TRUE, SMALL)
@@ -171,6 +185,8 @@ def test_bad_settings_are_named() -> None:
     (["selfcal", "--set", "Q_x=-3"], "Q_x=-3.0 must be > 0"),
     (["selfcal", "--latitude", "100"], "--latitude 100.0 must lie in"),
     (["ratetable", "--rates", "0.1"], "at least two distinct"),
+    (["ratetable", "--dwell", "-1"], "dwell=-1.0 s: give a finite time"),
+    (["ratetable", "--dwell", "1", "--average", "2"], "average=2.0 s must lie between"),
 ])
 def test_cli_refuses_bad_input(argv, message, capsys) -> None:
     assert main(argv) == 2

@@ -102,7 +102,8 @@ def _cmd_selfcal(args: argparse.Namespace) -> int:
         d_bias = result.bias - table.bias
         d_sf = (result.scale_factor / table.scale_factor - 1) * 1e6
         print(f"  rate table (noise-free, same feed-forward): bias {table.bias:+.4e} rad/s, "
-              f"SF {table.scale_factor:.6f}; difference {d_bias:+.2e} rad/s, {d_sf:+.1f} ppm")
+              f"SF {table.scale_factor:.6f}; difference {d_bias:+.2e} rad/s, {d_sf:+.1f} ppm "
+              f"(table unsettled by {table.unsettled:.1e} rad/s)")
         summary["ratetable"] = table.summary()
         summary["difference"] = {"bias_rad_s": d_bias, "scale_factor_ppm": d_sf}
     (out / "summary.json").write_text(json.dumps(summary, indent=2, default=_json))
@@ -115,7 +116,7 @@ def _cmd_selfcal(args: argparse.Namespace) -> int:
 
 
 def _cmd_ratetable(args: argparse.Namespace) -> int:
-    from .ratetable import DEFAULT_RATES, rate_table
+    from .ratetable import DEFAULT_RATES, RateTableError, rate_table
     from .sequence import measure_feedforward
 
     rates = tuple(args.rates) if args.rates else DEFAULT_RATES
@@ -130,7 +131,7 @@ def _cmd_ratetable(args: argparse.Namespace) -> int:
         else:
             ff = measure_feedforward(res, cfg)
         table = rate_table(res, ff, cfg, rates=rates, dwell=args.dwell, average=args.average)
-    except (ResonatorError, LoopsError, PhasorError) as exc:
+    except (ResonatorError, LoopsError, PhasorError, RateTableError) as exc:
         raise ParameterError(str(exc)) from None
     out = Path(args.out or "runs/ratetable")
     out.mkdir(parents=True, exist_ok=True)
@@ -139,7 +140,8 @@ def _cmd_ratetable(args: argparse.Namespace) -> int:
     print(f"rate table, {len(rates)} rates: bias {table.bias:+.4e} rad/s (1 sigma "
           f"{table.sigma_bias:.1e}), scale factor {table.scale_factor:.6f} V/(rad/s) "
           f"(1 sigma {table.sigma_scale_factor / table.scale_factor * 1e6:.1f} ppm), "
-          f"largest nonlinearity {table.max_nonlinearity:.1e} rad/s; {table.wall_time:.1f} s")
+          f"largest nonlinearity {table.max_nonlinearity:.1e} rad/s, unsettled "
+          f"{table.unsettled:.1e} rad/s; {table.wall_time:.1f} s")
     print(f"  summary: {out / 'summary.json'}")
     return 0
 
@@ -178,8 +180,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "table (the ground truth of selfcal)")
     _common(rt)
     rt.add_argument("--rates", type=float, nargs="+", help="rad/s (default -1 .. 1, 7 rates)")
-    rt.add_argument("--dwell", type=float, default=1.0, help="s at each rate")
-    rt.add_argument("--average", type=float, default=0.5, help="s averaged at each rate")
+    rt.add_argument("--dwell", type=float, default=None,
+                    help="s at each rate (default: max(1, 3 / slowest loop bandwidth))")
+    rt.add_argument("--average", type=float, default=None,
+                    help="s averaged at each rate (default: the second half of the dwell)")
     rt.add_argument("--feedforward-from", dest="feedforward_from",
                     help="summary.json of a selfcal run: use its feed-forward correction")
     rt.set_defaults(func=_cmd_ratetable)
