@@ -188,7 +188,8 @@ def uncertainty(seeds: int) -> None:
         err = np.array([r[d] for r in rows])
         total = np.array([r[s_total] for r in rows])
         fit_only = np.sqrt(np.maximum(total**2 - np.array([r[s_rho] for r in rows])**2, 0.0))
-        print(f"{what}: RMS(error / 1-sigma) {rms(err / total):.2f} with rho's part, "
+        print(f"{what}: error RMS {rms(err):.2e} (max {np.abs(err).max():.2e}); "
+              f"RMS(error / 1-sigma) {rms(err / total):.2f} with rho's part, "
               f"{rms(err / fit_only):.2f} with the fit's alone (1.00 +- "
               f"{1 / math.sqrt(2 * seeds):.2f} expected)")
 
