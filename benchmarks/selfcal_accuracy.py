@@ -18,6 +18,7 @@ import argparse
 import math
 import time
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
@@ -25,7 +26,7 @@ from gyro_fmu.selfcal.ratetable import rate_table
 from gyro_fmu.selfcal.resonator import EARTH_RATE, ResonatorParameters
 from gyro_fmu.selfcal.sequence import FeedForward, SelfCalConfig, self_calibrate
 
-NOISE = 2.5e-4  #: V per pick-off sample: about 0.005 deg/s/sqrt(Hz) of rate noise
+NOISE = 2.5e-4  #: V per pick-off sample: Allan deviation 13 deg/h at 1 s (rate_noise)
 EARTH_LATITUDE = 42.36  #: deg (Cambridge, MA)
 BIAS_TARGET = 7.27e-5
 SF_TARGET_PPM = 100.0
@@ -147,25 +148,45 @@ def drift() -> None:
           f"SF {(table.scale_factor / table_old.scale_factor - 1) * 1e6:+.1f} ppm")
 
 
-def rate_noise(noise: float = NOISE, duration: float = 40.0) -> None:
-    """Rate-noise density of the normal (mode 1) read-out for the pick-off noise."""
+def rate_noise(noise: float = NOISE, duration: float = 80.0,
+               figure: Path | None = Path("runs/selfcal_accuracy/allan.png")) -> None:
+    """Allan deviation of the normal (mode 1) read-out for white pick-off noise."""
+    from gyro_fmu.selfcal.allan import allan_deviation
     from gyro_fmu.selfcal.carrier import CarrierSimulation
     from gyro_fmu.selfcal.loops import LoopSettings
 
-    print(f"\n## Rate noise of the read-out, pick-off noise {noise} V per sample")
+    print(f"\n## Rate noise of the read-out: Allan deviation, pick-off noise {noise} V "
+          f"per sample, {duration:g} s record")
     sim = CarrierSimulation(replace(ResonatorParameters(), noise=noise), LoopSettings(mode=1),
                             seed=7)
     rec = sim.run(duration + 2.0, record_from=2.0)
     sf = rate_table(ResonatorParameters(), FeedForward(np.zeros((2, 2)), 1.0,
                                                        np.zeros((2, 2)))).scale_factor
     rate = rec["rate"][:-1] / sf
-    for T in (1.0, 4.0):
-        n = round(T / sim.step)
-        means = rate[: len(rate) // n * n].reshape(-1, n).mean(axis=1)
-        density = means.std(ddof=1) * math.sqrt(2 * T)  # one-sided, white
-        print(f"  {T:g} s means: std {means.std(ddof=1):.2e} rad/s -> density "
-              f"{math.degrees(density):.4f} deg/s/sqrt(Hz) "
-              f"(angle random walk {math.degrees(density) / math.sqrt(2) * 60:.2f} deg/sqrt(h))")
+    taus = np.logspace(math.log10(sim.step * 4), math.log10(duration / 4), 25)
+    adev = allan_deviation(rate, sim.step, taus)
+    slopes = np.gradient(np.log(adev), np.log(taus))
+    print(f"{'tau s':>10} {'sigma rad/s':>12} {'deg/h':>10} {'slope':>6}")
+    for tau, a, k in list(zip(taus, adev, slopes, strict=True))[::3]:
+        print(f"{tau:10.4g} {a:12.3e} {math.degrees(a) * 3600:10.2f} {k:6.2f}")
+    if figure is not None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        figure.parent.mkdir(parents=True, exist_ok=True)
+        fig, ax = plt.subplots(figsize=(6, 4))
+        ax.loglog(taus, np.degrees(adev) * 3600, "o-", ms=3, label="rate read-out, mode 1")
+        ax.set_xlabel("averaging time tau (s)")
+        ax.set_ylabel("Allan deviation (deg/h)")
+        ax.set_title(f"white pick-off noise {noise} V per 25 us sample")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend()
+        fig.tight_layout()
+        fig.savefig(figure, dpi=120)
+        plt.close(fig)
+        print(f"figure: {figure}")
 
 
 def uncertainty(seeds: int) -> None:

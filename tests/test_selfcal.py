@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from gyro_fmu.cli import main
+from gyro_fmu.selfcal.allan import allan_deviation
 from gyro_fmu.selfcal.carrier import CarrierSimulation
 from gyro_fmu.selfcal.estimator import transfer
 from gyro_fmu.selfcal.loops import LoopsError, LoopSettings
@@ -236,3 +237,23 @@ def test_cubic_stiffness_step_matches_an_independent_integration() -> None:
     # splitting error: second order in w h / n = 0.04 on a cubic force 7e-4 of the linear
     # one, about 1e-6 after 20 cycles (measured 1.05e-6)
     assert np.max(np.abs(model.s[:4] - y) / scale) < 5e-6
+
+
+def test_allan_deviation_of_white_noise_a_constant_and_a_drift() -> None:
+    """White rate noise of std s sampled at h: sigma(tau) = s sqrt(h / tau) (slope -1/2);
+    a constant rate: 0; a linear drift D: D tau / sqrt(2) (IEEE 952's rate ramp)."""
+    rng = np.random.default_rng(3)
+    h, s = 1e-3, 0.02
+    y = s * rng.standard_normal(400_000)
+    taus = np.array([0.001, 0.01, 0.1, 1.0, 10.0])
+    adev = allan_deviation(y, h, taus)
+    # overlapping estimates at tau = 10 s have ~40 independent differences: 15 % at 4 sigma
+    np.testing.assert_allclose(adev, s * np.sqrt(h / taus), rtol=0.15)
+    assert abs(adev[0] / (s * math.sqrt(h / taus[0])) - 1) < 0.01  # 400,000 differences
+    t = np.arange(200_000) * h
+    # rounding of the integrated angle (up to 140 rad) leaves ~1e-10 rad/s at tau = 1 ms
+    assert np.allclose(allan_deviation(np.full(t.size, 0.7), h, taus[:4]), 0.0, atol=1e-9)
+    np.testing.assert_allclose(allan_deviation(1e-3 * t, h, taus[:4]),
+                               1e-3 * taus[:4] / math.sqrt(2), rtol=1e-6)
+    with pytest.raises(ValueError, match="between the step"):
+        allan_deviation(y, h, [1000.0])

@@ -66,7 +66,7 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="resonator parameter (f_x, Q_x, dxy, kxy, Px, phi_y, Exy, ...)")
     p.add_argument("--noise", type=float,
-                   help="pick-off noise, V per sample (2.5e-4 ~ 0.005 deg/s/sqrt(Hz))")
+                   help="pick-off noise, V per sample (2.5e-4: Allan deviation 13 deg/h at 1 s)")
     p.add_argument("--drift", type=float, nargs=2, metavar=("DF_HZ", "DAMPING_FACTOR"),
                    help="temperature-like drift: shift both modes by DF_HZ, scale dampings")
     p.add_argument("--latitude", type=float,
