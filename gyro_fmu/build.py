@@ -51,9 +51,11 @@ def build_fmu(name: str, dest: Path = MODELS_DIR, reference: bool = True) -> Pat
         from .reference import write_reference
 
         write_reference(path)  # runs the FMU here: its kernels are compiled and cached
+    from .fmu_docs import add_documentation
     from .kernel_cache import add_to_fmu
 
     add_to_fmu(path, PACKAGE_DIR)
+    add_documentation(path)
     return path
 
 
