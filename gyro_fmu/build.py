@@ -8,6 +8,8 @@ share the first one loaded (FIELD-NOTES). Slave modules have unique names.
 from __future__ import annotations
 
 import functools
+import os
+import tempfile
 import zipfile
 import zlib
 from pathlib import Path
@@ -44,19 +46,26 @@ def build_fmu(name: str, dest: Path = MODELS_DIR, reference: bool = True) -> Pat
         raise FileNotFoundError(
             f"no FMU source {script}: the FMU names are {list(FMU_NAMES)}"
         )
-    dest.mkdir(parents=True, exist_ok=True)
-    path = Path(FmuBuilder.build_FMU(script, dest=dest, project_files=[PACKAGE_DIR],
-                                     **CAPABILITIES))
-    if reference:
-        from .reference import write_reference
-
-        write_reference(path)  # runs the FMU here: its kernels are compiled and cached
     from .fmu_docs import add_documentation
-    from .kernel_cache import add_to_fmu
+    from .kernel_cache import add_to_fmu, drop_suspect_caches
 
-    add_to_fmu(path, PACKAGE_DIR)
-    add_documentation(path)
-    return path
+    dest = Path(dest)
+    dest.mkdir(parents=True, exist_ok=True)
+    # Built in a folder of its own and moved into place whole: a process reading
+    # dest/NAME.fmu meanwhile sees the old archive or the new one, never a partial one.
+    with tempfile.TemporaryDirectory(dir=dest, prefix=f".{name}-") as tmp:
+        path = Path(FmuBuilder.build_FMU(script, dest=tmp, project_files=[PACKAGE_DIR],
+                                         **CAPABILITIES))
+        if reference:
+            from .reference import write_reference
+
+            drop_suspect_caches(PACKAGE_DIR)
+            write_reference(path)  # runs the FMU here: its kernels are compiled and cached
+        add_to_fmu(path, PACKAGE_DIR)
+        add_documentation(path)
+        final = dest / path.name
+        os.replace(path, final)
+    return final
 
 
 def build_all(dest: Path = MODELS_DIR, names: tuple[str, ...] = FMU_NAMES) -> list[Path]:

@@ -7,10 +7,17 @@ the copy an FMU carries, unpacked to a fresh folder: numba found no cache there 
 compiled the observer's kernels in every process (13.7 s for 200 steps of
 GyroObserver.fmu in the C host of `gyro-fmu doctor`, benchmarks/PERF_NOTES.md).
 
-numba keys a cache on the SHA-256 of the source file, its own version, the function's
-bytecode and the CPU, not on paths. So the build adds to the FMU the cache files that
-are current for the sources it ships, beside them (resources/gyro_fmu/**/__pycache__).
-On another CPU or numba version the entries do not match and numba compiles, as before.
+numba keys a cache on the SHA-256 of the function's own source file, its own version,
+the function's bytecode and the CPU, not on paths. So the build adds to the FMU the
+cache files that are current for the sources it ships, beside them
+(resources/gyro_fmu/**/__pycache__). On another CPU or numba version the entries do not
+match and numba compiles, as before.
+
+numba does not look at the other files a kernel calls into (observer's kernels inline
+dynamics.inf_norm_rows; carrier._run inlines loops_step and resonator_step): after an
+edit of a callee it loads the caller's old code. The build therefore first drops every
+cache file older than the newest source that holds kernels, so that the reference run
+compiles them afresh, and ships only files at least that new.
 """
 
 from __future__ import annotations
@@ -21,10 +28,30 @@ import zipfile
 from pathlib import Path
 
 
+def newest_kernel_source(package_dir: Path) -> int:
+    """mtime (ns) of the newest source file of the package that defines numba kernels."""
+    return max((f.stat().st_mtime_ns for f in package_dir.rglob("*.py")
+                if "@njit" in f.read_text(encoding="utf-8", errors="replace")), default=0)
+
+
+def drop_suspect_caches(package_dir: Path) -> int:
+    """Delete cache files older than the newest kernel source (they may hold an inlined
+    callee that has changed since); returns how many were deleted."""
+    newest = newest_kernel_source(package_dir)
+    dropped = 0
+    for f in [*package_dir.rglob("__pycache__/*.nbi"), *package_dir.rglob("__pycache__/*.nbc")]:
+        if f.stat().st_mtime_ns < newest:
+            f.unlink(missing_ok=True)
+            dropped += 1
+    return dropped
+
+
 def current_cache_files(package_dir: Path) -> list[Path]:
-    """The package's numba cache files (index and data) made for its sources as they are."""
+    """The package's numba cache files (index and data) made for its sources as they are
+    and no older than its newest kernel source."""
     import numba
 
+    newest = newest_kernel_source(package_dir)
     files: list[Path] = []
     for index in sorted(package_dir.rglob("__pycache__/*.nbi")):
         source = index.parent.parent / f"{index.name.split('.', 1)[0]}.py"
@@ -36,7 +63,8 @@ def current_cache_files(package_dir: Path) -> list[Path]:
         except Exception:  # unreadable or orphaned index: not shipped
             continue
         data = [index.parent / name for name in overloads.values()]
-        if version == numba.__version__ and stamp == digest and all(d.is_file() for d in data):
+        if (version == numba.__version__ and stamp == digest
+                and all(f.is_file() and f.stat().st_mtime_ns >= newest for f in [index, *data])):
             files += [index, *data]
     return files
 

@@ -108,3 +108,33 @@ def test_a_non_python_host_loads_the_kernels_the_fmu_ships(models_dir: Path,
     loaded = [line for line in run.stdout.splitlines() if "data loaded from" in line]
     assert any(shipped in line for line in loaded), run.stdout[-3000:]
     assert not any("data saved to" in line for line in run.stdout.splitlines())
+
+
+def test_kernel_caches_older_than_any_kernel_source_are_neither_shipped_nor_kept(
+        tmp_path: Path) -> None:
+    """numba checks only a kernel's own file; a caller's cache made before a callee in
+    another file changed must not reach an FMU (and is dropped before the build)."""
+    import hashlib
+    import os
+    import pickle
+
+    import numba
+
+    from gyro_fmu.kernel_cache import current_cache_files, drop_suspect_caches
+
+    pkg = tmp_path / "pkg"
+    (pkg / "__pycache__").mkdir(parents=True)
+    caller, callee = pkg / "caller.py", pkg / "callee.py"
+    caller.write_text("from numba import njit\n@njit(cache=True)\ndef f(x):\n    return x\n")
+    callee.write_text("from numba import njit\n@njit(cache=True)\ndef g(x):\n    return x\n")
+    index, data = pkg / "__pycache__" / "caller.f-3.py311.nbi", pkg / "__pycache__" / "x.1.nbc"
+    with index.open("wb") as f:
+        pickle.dump(numba.__version__, f)
+        f.write(pickle.dumps((hashlib.sha256(caller.read_bytes()).digest(), {"k": data.name})))
+    data.write_bytes(b"compiled")
+    for path, t in ((caller, 1_000), (callee, 2_000), (index, 3_000), (data, 3_000)):
+        os.utime(path, ns=(t * 10**9, t * 10**9))
+    assert current_cache_files(pkg) == [index, data]
+    os.utime(callee, ns=(4_000 * 10**9, 4_000 * 10**9))  # the callee edited after compiling
+    assert current_cache_files(pkg) == []
+    assert drop_suspect_caches(pkg) == 2 and not index.exists() and not data.exists()
