@@ -2,9 +2,10 @@
 
 build_compiled_null_fmus(pythonfmu_nulls, dest) takes the do-nothing pythonfmu FMUs of
 bench.py (same variables as ours) and replaces each one's binary by a C library whose
-fmi2GetReal writes zeros and whose other functions return fmi2OK. Running the standard
-wiring over these measures the compiled master loop, fmpy's setup excluded from the
-loop; the pythonfmu floor minus this is what pythonfmu and the Python adapter cost.
+fmi2GetReal writes the number of steps taken so far into every output (so a test can
+see that row k follows exactly k steps) and whose other functions return fmi2OK.
+Running the standard wiring over these measures the compiled master loop; the
+pythonfmu floor minus this is what pythonfmu and the Python adapter cost.
 Needs a C compiler and fmpy's FMI 2.0 headers (both checked by gyro_fmu.doctor).
 """
 
@@ -19,7 +20,6 @@ from gyro_fmu.doctor import find_compiler, fmi2_header_dir
 
 _SOURCE = r"""
 #include <stdlib.h>
-#include <string.h>
 #include "fmi2Functions.h"
 
 /* REFUSE_GET / REFUSE_SET / REFUSE_STEP = 1: that function returns fmi2Error from its
@@ -36,7 +36,7 @@ _SOURCE = r"""
 #ifndef REFUSE_AFTER
 #define REFUSE_AFTER 0
 #endif
-typedef struct { int gets, sets, steps; } Null;
+typedef struct { int gets, sets, steps; double done; } Null;
 #define VERDICT(counter, refuse) \
     ((refuse) && ++((Null*)c)->counter > REFUSE_AFTER ? fmi2Error : fmi2OK)
 
@@ -60,13 +60,15 @@ fmi2Status fmi2Terminate(fmi2Component c) { return fmi2OK; }
 fmi2Status fmi2Reset(fmi2Component c) { return fmi2OK; }
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
                        fmi2Real value[]) {
-    memset(value, 0, n * sizeof(fmi2Real));
+    for (size_t i = 0; i < n; i++) value[i] = ((Null*)c)->done;  /* steps taken so far */
     return VERDICT(gets, REFUSE_GET);
 }
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
                        const fmi2Real value[]) { return VERDICT(sets, REFUSE_SET); }
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSetPrior) {
-    return VERDICT(steps, REFUSE_STEP);
+    fmi2Status status = VERDICT(steps, REFUSE_STEP);
+    if (status == fmi2OK) ((Null*)c)->done += 1.0;
+    return status;
 }
 #define REFUSE(name, ...) fmi2Status name(__VA_ARGS__) { return fmi2Error; }
 REFUSE(fmi2GetInteger, fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[])

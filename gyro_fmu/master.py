@@ -182,7 +182,7 @@ def run_cosimulation(
         columns, getters = _recording(outputs, record)
         plan = _Plan(instances, outputs, wiring, getters, n_steps)
         for name, inst in instances.items():
-            connected = set(wiring[name][0]) if name in wiring else set()
+            connected = {_split(c.dst)[1] for c in connections if _split(c.dst)[0] == name}
             _initialize(inst, start_time, stop_time, logger, connected)
         k, phase, index, status = plan.run(start_time, step)
         if phase >= 0:
@@ -294,9 +294,9 @@ class _Plan:
             for first in range(0, n + 1, _CHUNK):
                 outcome = step_loop(self.data, start_time, step, first,
                                     min(first + _CHUNK - 1, n), *self.args)
-                if outcome[1] >= 0:
+                if outcome[1] >= 0 and not interrupted():
                     return outcome
-                if interrupted():
+                if interrupted():  # Ctrl-C wins over a refusal in the same chunk
                     raise KeyboardInterrupt(f"co-simulation interrupted at t = "
                                             f"{start_time + outcome[0] * step:.9g} s")
         return outcome
@@ -350,7 +350,8 @@ def _unpacked(path: Path) -> str:
     key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
     unpacked = _UNPACKED.get(key)
     if unpacked is None:
-        for old in [k for k in _UNPACKED if k[0] == key[0]]:  # a rebuilt archive
+        for old in [k for k in _UNPACKED  # a rebuilt archive, or one gone (a build's)
+                    if k[0] == key[0] or not Path(k[0]).exists()]:
             _UNPACKED.pop(old).cleanup()
         unpacked = tempfile.TemporaryDirectory(prefix=f"gyro_fmu_{path.stem}_")
         extract(str(path), unzipdir=unpacked.name)
@@ -380,7 +381,8 @@ def _instantiate(comp: Component, callbacks: fmi2CallbackFunctions) -> _Instance
         # pythonfmu puts the FMU's resources first on the host's sys.path for good: later
         # imports, and subprocesses that inherit sys.path (Dask, multiprocessing), would
         # take modules from inside the FMU. What it imported stays in sys.modules.
-        sys.path[:] = [p for p in sys.path if not p.startswith(unzip_dir)]
+        sys.path[:] = [p for p in sys.path
+                       if not (isinstance(p, str) and p.startswith(unzip_dir))]
     variables = {v.name: v for v in md.modelVariables}
     return _Instance(comp, md, unzip_dir, slave, variables)
 
@@ -439,34 +441,48 @@ def _units(instances: dict[str, _Instance]) -> dict[str, str]:
 
 
 def _initialize(inst: _Instance, start_time: float, stop_time: float, logger: LogCollector,
-                connected: set[int]) -> None:
-    """Set up the experiment, set parameters and the values of unconnected inputs, and
-    initialize. connected: value references of the inputs that connections drive."""
+                connected: set[str]) -> None:
+    """Set up the experiment, set parameters, initialize, and give unconnected inputs
+    their values. connected: names of the inputs that connections drive.
+
+    Parameters are set before fmi2EnterInitializationMode (initial="exact" allows it);
+    inputs only from then on, where FMI 2.0 allows setting them."""
     slave, name = inst.slave, inst.component.name
-    starts = [(pname, value, "parameter") for pname, value in inst.component.parameters.items()]
-    starts += [(iname, value, "input") for iname, value in inst.component.inputs.items()]
+    parameters = [(var, value, "parameter") for var, value in inst.component.parameters.items()]
+    inputs = [(var, value, "input") for var, value in inst.component.inputs.items()]
     try:
+        for var, value, causality in parameters + inputs:  # check all before any FMI call
+            _start_variable(inst, var, value, causality, connected)
         slave.setupExperiment(startTime=start_time, stopTime=stop_time)
-        for var, value, causality in starts:
-            v = inst.variables.get(var)
-            if v is None or v.causality != causality:
-                have = sorted(k for k, x in inst.variables.items() if x.causality == causality)
-                raise CoSimulationError(
-                    f"{name}: {inst.component.fmu.name} has no {causality} {var!r}; "
-                    f"its {causality}s are {have}"
-                )
-            if v.valueReference in connected:
-                raise CoSimulationError(
-                    f"{name}.{var} is driven by a connection and also given the value "
-                    f"{value!r}: drop one of the two"
-                )
-            _set_value(slave, v, value)
+        for var, value, _ in parameters:
+            _set_value(slave, inst.variables[var], value)
         slave.enterInitializationMode()
+        for var, value, _ in inputs:
+            _set_value(slave, inst.variables[var], value)
         slave.exitInitializationMode()
     except FMICallException as exc:
         raise CoSimulationError(
             f"{name}: initialization failed ({exc}); it said:\n{logger.recent(name)}"
         ) from None
+
+
+def _start_variable(inst: _Instance, var: str, value: object, causality: str,
+                    connected: set[str]):
+    """The variable a start value is given for, or a CoSimulationError saying why not."""
+    name = inst.component.name
+    v = inst.variables.get(var)
+    if v is None or v.causality != causality:
+        have = sorted(k for k, x in inst.variables.items() if x.causality == causality)
+        raise CoSimulationError(
+            f"{name}: {inst.component.fmu.name} has no {causality} {var!r}; "
+            f"its {causality}s are {have}"
+        )
+    if var in connected:
+        raise CoSimulationError(
+            f"{name}.{var} is driven by a connection and also given the value "
+            f"{value!r}: drop one of the two"
+        )
+    return v
 
 
 def _set_value(slave: FMU2Slave, v, value: float | int | bool | str) -> None:

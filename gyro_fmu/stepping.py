@@ -12,12 +12,18 @@ GIL for each call, which this thread holds.
 
 from __future__ import annotations
 
+import ctypes
+
 import llvmlite.ir as ir
 import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic
 
 _I32, _I64, _F64 = ir.IntType(32), ir.IntType(64), ir.DoubleType()
+
+# The intrinsics pass pointers and size_t as 64-bit integers.
+assert ctypes.sizeof(ctypes.c_void_p) == 8 and ctypes.sizeof(ctypes.c_size_t) == 8, \
+    "the compiled master loop needs a 64-bit platform"
 
 #: Phase codes returned with a refused call.
 GET, SET, STEP = 0, 1, 2
@@ -82,13 +88,13 @@ def step_loop(data: np.ndarray, start_time: float, h: float, first: int, last: i
         if k == n:
             break
         for i in range(set_fn.size):
-            first = set_first[i]
+            j0 = set_first[i]
             if set_col[i] >= 0:
                 values = addr + 8 * set_col[i]
             else:
-                for j in range(first, first + set_n[i]):
+                for j in range(j0, j0 + set_n[i]):
                     buf[j] = data[k, gather[j]]
-                values = buf_addr + 8 * first
+                values = buf_addr + 8 * j0
             status = _fmi2_get_set_real(set_fn[i], set_comp[i], set_vrs[i], set_n[i], values)
             if status > 1:
                 return k, SET, i, status

@@ -154,7 +154,8 @@ def test_a_refused_call_stops_the_compiled_loop_at_its_step_and_is_named(
     if message is None:
         result = run_cosimulation(components, connections, 1e-4, 5e-6)
         assert result.data.shape == (21, 1 + 2 + 6)
-        assert np.all(result["plant.x"] == 0.0) and np.any(result["drive.ux"] != 0.0)
+        assert np.array_equal(result["plant.x"], np.arange(21.0))  # steps taken before row k
+        assert np.any(result["drive.ux"] != 0.0)
         assert np.array_equal(result["time"], np.arange(21) * 5e-6)
         return
     with pytest.raises(CoSimulationError, match=message):
@@ -176,3 +177,39 @@ def test_ctrl_c_stops_the_run_between_chunks_with_a_keyboard_interrupt(models_di
         timer.cancel()
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
     assert run_cosimulation([drive], [], 1e-4, 5e-6)["drive.ux"][-1] != 0.0
+
+
+def test_chunks_of_the_compiled_loop_join_without_a_seam(models_dir, tmp_path, monkeypatch):
+    """Row k holds outputs after exactly k steps and t_k = k h, whatever the chunk size."""
+    import gyro_fmu.master as master
+
+    plant = _compiled_null_builder()({"plant": models_dir / "GyroPlant.fmu"}, tmp_path)["plant"]
+    components = [Component("drive", models_dir / "TwoToneDrive.fmu"), Component("plant", plant)]
+    connections = [Connection("drive.ux", "plant.ux")]
+    runs = {}
+    for chunk in (2000, 7, 50, 51):
+        monkeypatch.setattr(master, "_CHUNK", chunk)
+        runs[chunk] = run_cosimulation(components, connections, 50 * 5e-6, 5e-6)
+    for chunk, result in runs.items():
+        assert np.array_equal(result.data, runs[2000].data), chunk
+    assert np.array_equal(runs[7]["plant.vy"], np.arange(51.0))
+    assert np.array_equal(runs[7]["time"], np.arange(51) * 5e-6)
+
+
+def test_values_of_unconnected_inputs_hold_for_the_whole_run(models_dir):
+    """GyroPlant with ux and Omega_z given as values (no connections) equals the library
+    stepped with the same held inputs, bit for bit."""
+    from gyro_fmu.parameters import DEFAULT_PRESET, PRESETS
+    from gyro_fmu.plant import GyroPlantModel
+
+    plant = Component("plant", models_dir / "GyroPlant.fmu",
+                      inputs={"ux": 2e-7, "Omega_z": 10.0})
+    result = run_cosimulation([plant], [], 100 * 5e-6, 5e-6)
+    model = GyroPlantModel(PRESETS[DEFAULT_PRESET])
+    expected = [model.measured().copy()]
+    for _ in range(100):
+        model.step(2e-7, 0.0, 10.0, 5e-6)
+        expected.append(model.measured().copy())
+    got = np.stack([result[f"plant.{s}"] for s in ("x", "vx", "y", "vy")], axis=1)
+    assert np.array_equal(got, np.array(expected))
+    assert np.max(np.abs(got[:, 2])) > 0.0  # Omega_z = 10 rad/s couples x into y
