@@ -36,12 +36,15 @@ def run_fmus(
     models_dir: Path = MODELS_DIR,
     fmus: Mapping[str, Path] | None = None,
     noise: MeasurementNoise | None = None,
+    ensure: bool = True,
 ) -> CoSimulationResult:
     """Co-simulate the scenario's standard system through the FMUs with the fmpy master.
 
     noise: the absolute pick-off noise, if already computed from the scenario.
+    ensure: build missing or stale FMUs first (a sweep's workers leave that to the
+    host, so that they never rebuild an FMU another worker is reading).
     """
-    if not fmus:
+    if ensure and not fmus:
         ensure_fmus(models_dir)
     noise = absolute_noise(sc) if noise is None else noise
     components, connections = fmu_system(sc, models_dir, fmus, noise)

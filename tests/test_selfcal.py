@@ -129,6 +129,9 @@ def test_rate_table_dwells_long_enough_for_slow_loops() -> None:
     assert auto.scale_factor == pytest.approx(long.scale_factor, rel=1e-7)
     assert abs(short.scale_factor / long.scale_factor - 1) > 1e-5  # 28 ppm measured
     assert short.unsettled > 1000 * auto.unsettled
+    stopped = replace(cfg, loops=replace(cfg.loops, agc_bandwidth=0.0))
+    with pytest.raises(LoopsError, match=r"agc_bandwidth=0\.0 must be > 0"):
+        rate_table(TRUE, ff, stopped, rates=rates)
 
 
 @pytest.fixture(scope="module")
@@ -247,9 +250,9 @@ def test_allan_deviation_of_white_noise_a_constant_and_a_drift() -> None:
     y = s * rng.standard_normal(400_000)
     taus = np.array([0.001, 0.01, 0.1, 1.0, 10.0])
     adev = allan_deviation(y, h, taus)
-    # overlapping estimates at tau = 10 s have ~40 independent differences: 15 % at 4 sigma
-    np.testing.assert_allclose(adev, s * np.sqrt(h / taus), rtol=0.15)
-    assert abs(adev[0] / (s * math.sqrt(h / taus[0])) - 1) < 0.01  # 400,000 differences
+    # 4 x the relative spread of each estimate over 60 seeds (0.14, 0.29, 0.93, 2.5, 8.9 %)
+    rtol = np.array([0.006, 0.012, 0.04, 0.10, 0.36])
+    assert np.all(np.abs(adev / (s * np.sqrt(h / taus)) - 1) < rtol), adev
     t = np.arange(200_000) * h
     # rounding of the integrated angle (up to 140 rad) leaves ~1e-10 rad/s at tau = 1 ms
     assert np.allclose(allan_deviation(np.full(t.size, 0.7), h, taus[:4]), 0.0, atol=1e-9)

@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .carrier import CarrierSimulation
-from .loops import LoopSettings
+from .loops import LoopsError, LoopSettings
 from .resonator import ResonatorParameters
 from .sequence import FeedForward, SelfCalConfig
 
@@ -74,6 +74,9 @@ def rate_table(res: ResonatorParameters, ff: FeedForward, cfg: SelfCalConfig | N
     lo: LoopSettings = replace(cfg.loops, mode=1, sideband_index=0.0,
                                ff_xx=ff.E[0, 0], ff_xy=ff.E[0, 1], ff_yx=ff.E[1, 0],
                                ff_yy=ff.E[1, 1])
+    problems = lo.problems()
+    if problems:
+        raise LoopsError("; ".join(problems))
     T = settling_time(lo)
     settle = max(2.0, 2.0 * T) if settle is None else settle
     dwell = max(1.0, T) if dwell is None else dwell
