@@ -6,7 +6,14 @@ from pathlib import Path
 
 import pytest
 
-from gyro_fmu.build import build_all
+from gyro_fmu.build import PACKAGE_DIR, build_all
+from gyro_fmu.kernel_cache import drop_suspect_caches
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """numba validates a cached kernel against its own file only: after an edit of a
+    kernel it inlines from another file it would load old code. Drop such caches."""
+    drop_suspect_caches(PACKAGE_DIR)
 
 
 @pytest.fixture(scope="session")
