@@ -214,17 +214,19 @@ def estimate(data: list[ModeData], ff: FeedForward, cfg: SelfCalConfig,
              start: float | None = None) -> SelfCalResult:
     """Step 4: fit eq. 19 and compute bias and scale factor of the mode-1 read-out."""
     lo = cfg.loops
-    kappa = cfg.kappa
-    fit = fit_sidebands(data, ff.rho, kappa, cfg.step, lo.plant_gain, lo.q_nominal,
-                        cfg.fit_feedthrough, cfg.fixed_rate)
+
+    def fit_with(rho: complex) -> SidebandFit:
+        return fit_sidebands(data, rho, cfg.kappa, cfg.step, lo.plant_gain, lo.q_nominal,
+                             cfg.fit_feedthrough, cfg.fixed_rate)
+
+    fit = fit_with(ff.rho)
     m1 = next((d for d in data if d.mode == 1), data[0])
     omega_r, amp = m1.omega_osc, lo.amplitude
     bias, sf = bias_and_scale_factor(fit, omega_r, amp)
     s_bias, s_sf = bias_and_scale_factor_sigma(fit, omega_r, amp)
     moved = []  # rho moved by its 1-sigma along Re and along Im, refitted
     for d_rho in (ff.sigma_rho, 1j * ff.sigma_rho) if ff.sigma_rho > 0.0 else ():
-        refit = fit_sidebands(data, ff.rho + d_rho, kappa, cfg.step, lo.plant_gain,
-                              lo.q_nominal, cfg.fit_feedthrough, cfg.fixed_rate)
+        refit = fit_with(ff.rho + d_rho)
         moved.append(np.subtract(bias_and_scale_factor(refit, omega_r, amp), (bias, sf)))
     s_bias_rho, s_sf_rho = np.sqrt(np.sum(np.square(moved), axis=0)) if moved else (0.0, 0.0)
     wall = time.perf_counter() - start if start is not None else float("nan")
