@@ -10,6 +10,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 
+from gyro_fmu.fmi import DEBUG_CATEGORY
 from gyro_fmu.master import LogCollector, fmi2_callbacks
 
 
@@ -102,3 +103,34 @@ def assert_state_round_trip(fmu: Path, params: dict, outputs: list[str], inputs,
     assert b.messages(min_status=3) == ""
     a.close()
     b.close()
+
+
+def assert_bad_input_refused(fmu: Path, params: dict, action: tuple, message: str,
+                             h: float) -> None:
+    """One bad value: the FMU logs `message` (traceback in logDebug), the step returns
+    fmi2Discard without advancing, a bad input is recoverable, and the instance can
+    still be terminated and freed.
+
+    action: ("input" | "after_init", variable, value): set it after initialization;
+    ("step", step size, None): a good step, then one of that size;
+    ("init", None, None): the parameters alone must make every step fail.
+    """
+    inst = Instance(fmu, "bad", params)
+    kind, what, value = action
+    outputs = [v for v, x in inst.vars.items() if x.causality == "output"]
+    before = inst.get(outputs)
+    if kind == "step":
+        inst.slave.doStep(0.0, h)  # a good step first
+        inst.t = h
+        assert inst.step(what) == 2
+    else:
+        if kind in ("input", "after_init"):
+            inst.set({what: value})
+        assert inst.step(h) == 2  # fmi2Discard, the state kept
+    text = inst.messages()
+    assert message in text, text
+    assert "Traceback" in inst.category(DEBUG_CATEGORY)
+    if kind in ("input", "after_init"):
+        assert np.array_equal(np.array(before), np.array(inst.get(outputs)))  # not advanced
+        assert inst.step(h) == 0  # recoverable: the next step goes on
+    inst.close()  # fmi2Terminate and fmi2FreeInstance after the error
