@@ -4,7 +4,7 @@
 
 Measured in one run, interleaved so machine noise hits all alike:
 - the scenario (default: 100 ms, 20,000 steps of 5 us, 4 FMUs) through the fmpy master
-  and the same computation in-process (gyro_fmu.inprocess, no FMI): wall time and ratio;
+  and the same computation in-process (gyro_fmu.system.inprocess, no FMI): wall time and ratio;
 - the floor: the same master loop, wiring and adapter (GyroSlave) over do-nothing slaves
   with the same variables, built into a temp dir: the cost of FMI, pythonfmu and the master;
 - the master alone: the same system over do-nothing FMUs compiled from C
@@ -31,11 +31,11 @@ from pathlib import Path
 import numpy as np
 from compiled_null import build_compiled_null_fmus
 
-from gyro_fmu.build import PACKAGE_DIR
-from gyro_fmu.inprocess import run_inprocess
-from gyro_fmu.master import Component, run_cosimulation
-from gyro_fmu.run import ensure_fmus, run_fmus
-from gyro_fmu.scenario import CONNECTIONS, INSTANCE_FMUS, SCENARIOS, scenario
+from gyro_fmu.cosim.master import Component, run_cosimulation
+from gyro_fmu.fmu.build import PACKAGE_DIR
+from gyro_fmu.system.inprocess import run_inprocess
+from gyro_fmu.system.run import ensure_fmus, run_fmus
+from gyro_fmu.system.scenario import CONNECTIONS, INSTANCE_FMUS, SCENARIOS, scenario
 
 _NULL_SLAVES = {  # instance -> (class name, inputs, outputs), the variables of our FMUs
     "drive": ("NullDrive", [], ["ux", "uy"]),
@@ -59,7 +59,7 @@ def build_null_fmus(dest: Path) -> dict[str, Path]:
         variables += [f'Var("{n}", "output", 0.0, "1", "{n}")' for n in outputs]
         script = dest / f"{cls}.py"
         script.write_text(textwrap.dedent(f'''\
-            from gyro_fmu.fmi import GyroSlave, Var
+            from gyro_fmu.fmu.slave import GyroSlave, Var
 
 
             class {cls}(GyroSlave):
@@ -81,7 +81,7 @@ def _timed(fn) -> float:
 
 
 def plant_step_us(sc, n: int = 20000, changing: bool = True) -> float:
-    from gyro_fmu.plant import GyroPlantModel
+    from gyro_fmu.model.plant import GyroPlantModel
 
     plant = GyroPlantModel(sc.params)
     drive, h = sc.the_drive, sc.step
@@ -94,10 +94,10 @@ def plant_step_us(sc, n: int = 20000, changing: bool = True) -> float:
 
 
 def observer_step_us(sc, n: int = 20000) -> float:
-    from gyro_fmu.observer import GyroStateObserver, ObserverTuning
-    from gyro_fmu.parameters import GyroParameters
-    from gyro_fmu.plant import GyroPlantModel, MeasurementNoise
-    from gyro_fmu.scenario import observer_tuning
+    from gyro_fmu.estimation.observer import GyroStateObserver, ObserverTuning
+    from gyro_fmu.model.parameters import GyroParameters
+    from gyro_fmu.model.plant import GyroPlantModel, MeasurementNoise
+    from gyro_fmu.system.scenario import observer_tuning
 
     plant, drive, h = GyroPlantModel(sc.params), sc.the_drive, sc.step
     ux, z = np.empty(n), np.empty((n, 2))
@@ -116,7 +116,7 @@ def observer_step_us(sc, n: int = 20000) -> float:
 
 _FRESH = """
 import time; t0 = time.perf_counter()
-from gyro_fmu.run import run_fmus; from gyro_fmu.scenario import scenario
+from gyro_fmu.system.run import run_fmus; from gyro_fmu.system.scenario import scenario
 sc = scenario({name!r}, stop_time={stop!r})
 t1 = time.perf_counter(); r = run_fmus(sc); t2 = time.perf_counter()
 import resource
@@ -136,9 +136,9 @@ def fresh_process(name: str, stop: float) -> tuple[float, float, float, float, f
 def selfcal_times(repeat: int) -> tuple[float, float, float]:
     """Median wall of a whole default self-calibration in process (s), the two-FMU
     co-simulation's cost per step (us, 0.5 s run) and the implied FMU calibration (s)."""
-    from gyro_fmu.selfcal.fmu_run import run_fmus as run_selfcal_fmus
     from gyro_fmu.selfcal.loops import LoopSettings
     from gyro_fmu.selfcal.resonator import ResonatorParameters
+    from gyro_fmu.selfcal.run import run_fmus as run_selfcal_fmus
     from gyro_fmu.selfcal.sequence import SelfCalConfig, self_calibrate
 
     res, cfg = ResonatorParameters(noise=2.5e-4), SelfCalConfig()

@@ -3,7 +3,7 @@
     python benchmarks/c_host_start.py [--steps 200]
 
 For GyroPlant.fmu and GyroObserver.fmu as built (numba kernels shipped inside, see
-gyro_fmu/kernel_cache.py) and for a copy with those kernels removed (what the C host
+gyro_fmu/fmu/kernel_cache.py) and for a copy with those kernels removed (what the C host
 met before: numba compiles in every process), the wall time of one C-host process that
 loads the FMU and runs `steps` steps of 5 us. Needs Linux and a C compiler.
 """
@@ -16,9 +16,9 @@ import time
 import zipfile
 from pathlib import Path
 
-from gyro_fmu import doctor as doc
-from gyro_fmu.build import MODELS_DIR
-from gyro_fmu.run import ensure_fmus
+from gyro_fmu.doctor import report as doc
+from gyro_fmu.fmu.build import MODELS_DIR
+from gyro_fmu.system.run import ensure_fmus
 
 
 def without_kernels(fmu: Path, dest: Path) -> Path:

@@ -6,7 +6,7 @@ fmi2GetReal writes the number of steps taken so far into every output (so a test
 see that row k follows exactly k steps) and whose other functions return fmi2OK.
 Running the standard wiring over these measures the compiled master loop; the
 pythonfmu floor minus this is what pythonfmu and the Python adapter cost.
-Needs a C compiler and fmpy's FMI 2.0 headers (both checked by gyro_fmu.doctor).
+Needs a C compiler and fmpy's FMI 2.0 headers (both checked by gyro_fmu.doctor.report).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-from gyro_fmu.doctor import find_compiler, fmi2_header_dir
+from gyro_fmu.doctor.report import find_compiler, fmi2_header_dir
 
 _SOURCE = r"""
 #include <stdlib.h>

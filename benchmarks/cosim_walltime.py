@@ -13,9 +13,9 @@ import argparse
 import statistics
 import time
 
-from gyro_fmu.inprocess import run_inprocess
-from gyro_fmu.run import ensure_fmus, run_fmus
-from gyro_fmu.scenario import SCENARIOS, scenario
+from gyro_fmu.system.inprocess import run_inprocess
+from gyro_fmu.system.run import ensure_fmus, run_fmus
+from gyro_fmu.system.scenario import SCENARIOS, scenario
 
 
 def main() -> None:

@@ -13,9 +13,9 @@ import argparse
 
 import numpy as np
 
-from gyro_fmu.metrics import ESTIMATED
-from gyro_fmu.run import estimate_column, run_fmus
-from gyro_fmu.scenario import scenario
+from gyro_fmu.estimation.metrics import ESTIMATED
+from gyro_fmu.system.run import estimate_column, run_fmus
+from gyro_fmu.system.scenario import scenario
 
 
 def main() -> None:

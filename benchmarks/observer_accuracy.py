@@ -1,4 +1,4 @@
-"""Accuracy, consistency and cost of gyro_fmu.observer (targets 1-5 of the observer issue).
+"""Accuracy, consistency and cost of gyro_fmu.estimation.observer (targets 1-5).
 
 Truth data are generated in-process with the library's exact held-input plant
 (HeldInputStepper): at each step t = k h the drive ux(t) and Omega_z(t) are held
@@ -18,11 +18,16 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from gyro_fmu.drive import TwoToneDrive
-from gyro_fmu.dynamics import HeldInputStepper
-from gyro_fmu.observer import GyroStateObserver, ObserverTuning
-from gyro_fmu.parameters import PARAMETER_NAMES, PRESET_DRIVE_AMPLITUDE, GyroParameters, preset
-from gyro_fmu.rate import RateKind, RateProfile
+from gyro_fmu.estimation.observer import GyroStateObserver, ObserverTuning
+from gyro_fmu.model.drive import TwoToneDrive
+from gyro_fmu.model.dynamics import HeldInputStepper
+from gyro_fmu.model.parameters import (
+    PARAMETER_NAMES,
+    PRESET_DRIVE_AMPLITUDE,
+    GyroParameters,
+    preset,
+)
+from gyro_fmu.model.rate import RateKind, RateProfile
 
 NAMES = ("Omega_z", *PARAMETER_NAMES)
 

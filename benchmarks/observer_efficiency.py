@@ -1,17 +1,17 @@
 """Observer efficiency: the online observer vs the batch identifier vs the Cramer-Rao bound.
 
 Default scenario (park-horowitz, constant Omega_z = 1 rad/s, drive 4000 + 1200 Hz,
-positions measured, observer tuning of gyro_fmu.scenario.observer_tuning), noise
+positions measured, observer tuning of gyro_fmu.system.scenario.observer_tuning), noise
 1e-6 .. 1e-3 of each signal's own peak (over the 80 ms noise-free run), several seeds.
-Runs are in-process (gyro_fmu.inprocess.run_inprocess, bit-identical to the FMU run).
+Runs are in-process (gyro_fmu.system.inprocess.run_inprocess, bit-identical to the FMU run).
 
 For each noise level and window (40 ms, 80 ms):
   CRB       Cramer-Rao 1-sigma at the truth for the same inputs and noise stds, plant
-            from rest (gyro_fmu.identify.crb_at);
+            from rest (gyro_fmu.estimation.identify.crb_at);
   obs err   RMS over seeds of the observer's error at the end of the window;
   obs sig   RMS over seeds of the observer's own 1-sigma at that time;
   batch err RMS over seeds of the batch output-error identifier's error on the same
-            data (gyro_fmu.identify.identify, from the observer's initial guess);
+            data (gyro_fmu.estimation.identify.identify, from the observer's initial guess);
   ratios    obs err / CRB (target <= 2 for Omega_z and dxy), obs err / obs sig
             (consistency, target within [1/2, 2]).
 
@@ -26,12 +26,12 @@ import time
 
 import numpy as np
 
-from gyro_fmu.identify import crb_at, identify, record_from_result
-from gyro_fmu.inprocess import run_inprocess
-from gyro_fmu.observability import UNKNOWN_NAMES
-from gyro_fmu.parameters import GyroParameters
-from gyro_fmu.run import estimate_column
-from gyro_fmu.scenario import absolute_noise, scenario
+from gyro_fmu.estimation.identify import crb_at, identify, record_from_result
+from gyro_fmu.estimation.observability import UNKNOWN_NAMES
+from gyro_fmu.model.parameters import GyroParameters
+from gyro_fmu.system.inprocess import run_inprocess
+from gyro_fmu.system.run import estimate_column
+from gyro_fmu.system.scenario import absolute_noise, scenario
 
 NOISE_LEVELS = (1e-6, 1e-5, 1e-4, 1e-3)
 WINDOWS = (0.04, 0.08)

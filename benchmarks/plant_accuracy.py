@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from gyro_fmu.build import MODELS_DIR
-from gyro_fmu.master import Component, Connection, run_cosimulation
-from gyro_fmu.parameters import preset
-from gyro_fmu.run import ensure_fmus
+from gyro_fmu.cosim.master import Component, Connection, run_cosimulation
+from gyro_fmu.fmu.build import MODELS_DIR
+from gyro_fmu.model.parameters import preset
+from gyro_fmu.system.run import ensure_fmus
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from reference import held_input_reference

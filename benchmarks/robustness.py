@@ -15,9 +15,9 @@ import argparse
 import json
 from pathlib import Path
 
-from gyro_fmu.build import MODELS_DIR
-from gyro_fmu.parameters import PARAMETER_NAMES
-from gyro_fmu.sweep import SweepSpec, ToleranceModel, run_sweep, write_outputs
+from gyro_fmu.fmu.build import MODELS_DIR
+from gyro_fmu.model.parameters import PARAMETER_NAMES
+from gyro_fmu.system.sweep import SweepSpec, ToleranceModel, run_sweep, write_outputs
 
 
 def main() -> None:

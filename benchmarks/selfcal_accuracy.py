@@ -152,7 +152,7 @@ def rate_noise(noise: float = NOISE, duration: float = 80.0,
                figure: Path | None = Path("runs/selfcal_accuracy/allan.png")) -> None:
     """Allan deviation of the normal (mode 1) read-out for white pick-off noise."""
     from gyro_fmu.selfcal.allan import allan_deviation
-    from gyro_fmu.selfcal.carrier import CarrierSimulation
+    from gyro_fmu.selfcal.inprocess import CarrierSimulation
     from gyro_fmu.selfcal.loops import LoopSettings
 
     print(f"\n## Rate noise of the read-out: Allan deviation, pick-off noise {noise} V "

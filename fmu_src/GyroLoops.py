@@ -2,9 +2,9 @@
 
 from pythonfmu.default_experiment import DefaultExperiment
 
-from gyro_fmu.fmi import GyroSlave, Var
-from gyro_fmu.selfcal.fmu_run import LOOPS_RENAMED, parameter_variables
+from gyro_fmu.fmu.slave import GyroSlave, Var
 from gyro_fmu.selfcal.loops import LoopSettings
+from gyro_fmu.selfcal.run import LOOPS_RENAMED, parameter_variables
 
 #: FMI unit of every float field of LoopSettings (mode and sideband_* counts are Integers).
 _UNITS = {
@@ -76,8 +76,8 @@ class GyroLoops(GyroSlave):
     )
 
     def setup(self) -> None:
-        from gyro_fmu.selfcal.fmu_run import settings_from_parameters
         from gyro_fmu.selfcal.loops import OUTPUTS, LoopsModel
+        from gyro_fmu.selfcal.run import settings_from_parameters
 
         if tuple(v.name for v in _OUTPUTS) != OUTPUTS:
             raise ValueError(f"GyroLoops outputs differ from the library's {OUTPUTS}: rebuild")

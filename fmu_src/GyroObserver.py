@@ -1,9 +1,9 @@
 """GyroObserver.fmu: the augmented state observer of US 2011/0314910 A1 (eqs. 5-9)."""
 
-from gyro_fmu.fmi import GyroSlave, Var, dataclass_from_parameters, dataclass_parameters
-from gyro_fmu.observer import ObserverTuning
-from gyro_fmu.parameters import DEFAULT_PRESET, PARAMETER_BOUNDS, PARAMETER_UNITS, PRESETS
-from gyro_fmu.scenario import default_initial_guess
+from gyro_fmu.estimation.observer import ObserverTuning
+from gyro_fmu.fmu.slave import GyroSlave, Var, dataclass_from_parameters, dataclass_parameters
+from gyro_fmu.model.parameters import DEFAULT_PRESET, PARAMETER_BOUNDS, PARAMETER_UNITS, PRESETS
+from gyro_fmu.system.scenario import default_initial_guess
 
 _GUESS = default_initial_guess(PRESETS[DEFAULT_PRESET])
 _UNITS = {**PARAMETER_UNITS, "Omega_z": "rad/s"}
@@ -50,8 +50,8 @@ class GyroObserver(GyroSlave):
     state_holder = "observer"
 
     def setup(self) -> None:
-        from gyro_fmu.observer import GyroStateObserver
-        from gyro_fmu.parameters import GyroParameters
+        from gyro_fmu.estimation.observer import GyroStateObserver
+        from gyro_fmu.model.parameters import GyroParameters
 
         initial = GyroParameters(**{n: getattr(self, f"{n}_0") for n in PARAMETER_UNITS})
         tuning = dataclass_from_parameters(ObserverTuning, self)

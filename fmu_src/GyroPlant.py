@@ -1,7 +1,7 @@
 """GyroPlant.fmu: the 2-DOF MEMS gyroscope of US 2011/0314910 A1 (eqs. 3-5)."""
 
-from gyro_fmu.fmi import GyroSlave, Var
-from gyro_fmu.parameters import DEFAULT_PRESET, PARAMETER_BOUNDS, PARAMETER_UNITS, PRESETS
+from gyro_fmu.fmu.slave import GyroSlave, Var
+from gyro_fmu.model.parameters import DEFAULT_PRESET, PARAMETER_BOUNDS, PARAMETER_UNITS, PRESETS
 
 _P = PRESETS[DEFAULT_PRESET]
 _DESCRIPTIONS = {
@@ -42,8 +42,8 @@ class GyroPlant(GyroSlave):
     )
 
     def setup(self) -> None:
-        from gyro_fmu.parameters import GyroParameters
-        from gyro_fmu.plant import GyroPlantModel, MeasurementNoise
+        from gyro_fmu.model.parameters import GyroParameters
+        from gyro_fmu.model.plant import GyroPlantModel, MeasurementNoise
 
         params = GyroParameters(**{n: getattr(self, n) for n in _DESCRIPTIONS})
         noise = MeasurementNoise(self.noise_x, self.noise_vx, self.noise_y, self.noise_vy)

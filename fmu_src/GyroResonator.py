@@ -2,9 +2,9 @@
 
 from pythonfmu.default_experiment import DefaultExperiment
 
-from gyro_fmu.fmi import GyroSlave, Var
-from gyro_fmu.selfcal.fmu_run import parameter_variables
+from gyro_fmu.fmu.slave import GyroSlave, Var
 from gyro_fmu.selfcal.resonator import ResonatorParameters
+from gyro_fmu.selfcal.run import parameter_variables
 
 #: FMI unit of every field of ResonatorParameters.
 _UNITS = {
@@ -38,7 +38,7 @@ class GyroResonator(GyroSlave):
     ring_frequency_1 t + cos 2 pi ring_frequency_2 t) generated inside. Inputs Vx, Vy,
     Omega_z are held over each communication step, which is integrated exactly
     (matrix exponential); the seeded noise (std noise per pick-off sample) equals the
-    in-process gyro_fmu.selfcal.carrier run sample for sample."""
+    in-process gyro_fmu.selfcal.inprocess run sample for sample."""
 
     description = " ".join((__doc__ or "").split())
     #: 10 samples per 4 kHz carrier cycle; 0.02 s is the reference run stored in the FMU
@@ -57,7 +57,7 @@ class GyroResonator(GyroSlave):
     def setup(self) -> None:
         import numpy as np
 
-        from gyro_fmu.fmi import dataclass_from_parameters
+        from gyro_fmu.fmu.slave import dataclass_from_parameters
         from gyro_fmu.selfcal.resonator import ResonatorModel, check_resonator
 
         params = dataclass_from_parameters(ResonatorParameters, self)

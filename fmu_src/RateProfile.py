@@ -1,8 +1,8 @@
 """RateProfile.fmu: the angular rate Omega_z(t) applied to the gyroscope."""
 
-from gyro_fmu.fmi import GyroSlave, Var
-from gyro_fmu.rate import RateKind
-from gyro_fmu.rate import RateProfile as _Defaults
+from gyro_fmu.fmu.slave import GyroSlave, Var
+from gyro_fmu.model.rate import RateKind
+from gyro_fmu.model.rate import RateProfile as _Defaults
 
 _R = _Defaults()
 
@@ -26,7 +26,7 @@ class RateProfile(GyroSlave):
     )
 
     def setup(self) -> None:
-        from gyro_fmu.rate import RateProfile as Profile
+        from gyro_fmu.model.rate import RateProfile as Profile
 
         self.profile = Profile(RateKind(int(self.kind)), self.offset, self.amplitude,
                                self.frequency, self.slope, self.t_start)

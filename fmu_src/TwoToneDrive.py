@@ -1,7 +1,7 @@
 """TwoToneDrive.fmu: the single-axis two-tone drive force of patent eq. 10."""
 
-from gyro_fmu.drive import TwoToneDrive as _Defaults
-from gyro_fmu.fmi import GyroSlave, Var
+from gyro_fmu.fmu.slave import GyroSlave, Var
+from gyro_fmu.model.drive import TwoToneDrive as _Defaults
 
 _D = _Defaults()
 
@@ -21,7 +21,7 @@ class TwoToneDrive(GyroSlave):
     )
 
     def setup(self) -> None:
-        from gyro_fmu.drive import TwoToneDrive as Drive
+        from gyro_fmu.model.drive import TwoToneDrive as Drive
 
         self.drive = Drive(self.A1, self.f1, self.A2, self.f2)
         problems = self.drive.problems()

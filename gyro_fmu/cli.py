@@ -8,11 +8,11 @@ import sys
 import warnings
 from pathlib import Path
 
-from .build import FMU_NAMES, MODELS_DIR, build_all
-from .master import CoSimulationError
-from .parameters import PARAMETER_NAMES, PRESETS, ParameterError, UnstablePlantWarning
-from .rate import RateProfile
-from .scenario import SCENARIOS, Scenario, scenario
+from .cosim.master import CoSimulationError
+from .fmu.build import FMU_NAMES, MODELS_DIR, build_all
+from .model.parameters import PARAMETER_NAMES, PRESETS, ParameterError, UnstablePlantWarning
+from .model.rate import RateProfile
+from .system.scenario import SCENARIOS, Scenario, scenario
 
 
 def _assignments(items: list[str] | None, what: str) -> dict[str, float]:
@@ -41,7 +41,7 @@ def _scenario_from(args: argparse.Namespace) -> Scenario:
         except ValueError as exc:
             raise ParameterError(str(exc)) from None
     if args.drive is not None:
-        from .drive import TwoToneDrive
+        from .model.drive import TwoToneDrive
 
         values = _assignments(args.drive, "--drive")
         changes["drive"] = TwoToneDrive(**{**vars(base.the_drive), **values})
@@ -63,7 +63,7 @@ def _cmd_build(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from .run import run_and_report
+    from .system.run import run_and_report
 
     sc = _scenario_from(args)
     fmus = {k: Path(v) for k, v in (f.split("=", 1) for f in args.fmu or [])}
@@ -78,8 +78,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from .parameters import GyroParameters
-    from .run import load_results, make_figures
+    from .model.parameters import GyroParameters
+    from .system.run import load_results, make_figures
 
     run_dir = Path(args.run_dir)
     summary_path = run_dir / "summary.json"
@@ -96,7 +96,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
 def _cmd_observability(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from .observability import observability_report
+    from .estimation.observability import observability_report
 
     sc = _scenario_from(args)
     drive = sc.the_drive
@@ -114,7 +114,7 @@ def _cmd_observability(args: argparse.Namespace) -> int:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from .reference import ReferenceError, validate_reference
+    from .fmu.reference import ReferenceError, validate_reference
 
     failed = 0
     for fmu in args.fmu:
@@ -135,14 +135,14 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 
 def _cmd_doctor(args: argparse.Namespace) -> int:
-    from .doctor import main as doctor_main
+    from .doctor.report import main as doctor_main
 
     return doctor_main(Path(args.fmu) if args.fmu else None, compile_host=not args.no_compile)
 
 
 def _cmd_ssp(args: argparse.Namespace) -> int:
-    from .run import ensure_fmus, run_fmus
-    from .ssp import relative_differences, run_ssp_libcosim, write_ssp
+    from .system.run import ensure_fmus, run_fmus
+    from .system.ssp import relative_differences, run_ssp_libcosim, write_ssp
 
     sc = _scenario_from(args)
     models = Path(args.models)
@@ -162,8 +162,8 @@ def _cmd_ssp(args: argparse.Namespace) -> int:
 
 
 def _cmd_container(args: argparse.Namespace) -> int:
-    from .container import build_container
-    from .run import ensure_fmus
+    from .system.container import build_container
+    from .system.run import ensure_fmus
 
     models = Path(args.models)
     ensure_fmus(models)
@@ -173,8 +173,8 @@ def _cmd_container(args: argparse.Namespace) -> int:
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
-    from .identify import identify, read_record
-    from .parameters import GyroParameters
+    from .estimation.identify import identify, read_record
+    from .model.parameters import GyroParameters
 
     sc = _scenario_from(args)  # the start of the fit: --preset/--set (default: park-horowitz)
     rec = read_record(Path(args.results), args.measured_pair or 1, args.window)
@@ -201,7 +201,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
 def _cmd_design_drive(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from .excitation import crb, design_drive, heat_map
+    from .estimation.excitation import crb, design_drive, heat_map
 
     sc = _scenario_from(args)
     weights = _assignments(args.weight, "--weight") if args.weight else None
@@ -231,8 +231,8 @@ def _cmd_design_drive(args: argparse.Namespace) -> int:
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
-    from .parameters import PARAMETER_NAMES
-    from .sweep import SweepSpec, ToleranceModel, run_sweep, write_outputs
+    from .model.parameters import PARAMETER_NAMES
+    from .system.sweep import SweepSpec, ToleranceModel, run_sweep, write_outputs
 
     sc = _scenario_from(args)
     spread = dict.fromkeys(PARAMETER_NAMES, args.spread)

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from gyro_fmu.build import PACKAGE_DIR, build_all
-from gyro_fmu.kernel_cache import drop_suspect_caches
+from gyro_fmu.fmu.build import PACKAGE_DIR, build_all
+from gyro_fmu.fmu.kernel_cache import drop_suspect_caches
 
 
 def pytest_sessionstart(session: pytest.Session) -> None:

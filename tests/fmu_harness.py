@@ -10,8 +10,8 @@ from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 
-from gyro_fmu.fmi import DEBUG_CATEGORY
-from gyro_fmu.master import LogCollector, fmi2_callbacks
+from gyro_fmu.cosim.master import LogCollector, fmi2_callbacks
+from gyro_fmu.fmu.slave import DEBUG_CATEGORY
 
 
 class Instance:

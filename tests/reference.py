@@ -1,4 +1,4 @@
-"""Independent reference solutions for the tests (written apart from gyro_fmu.dynamics)."""
+"""Independent reference solutions for the tests (written apart from gyro_fmu.model.dynamics)."""
 
 from __future__ import annotations
 

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from fmpy.validation import validate_fmu
 
-from gyro_fmu.container import build_container, container_start_values, exposed_names
-from gyro_fmu.master import CoSimulationResult
-from gyro_fmu.observer import ObserverTuning
-from gyro_fmu.rate import RateKind, RateProfile
-from gyro_fmu.run import run_fmus
-from gyro_fmu.scenario import scenario
+from gyro_fmu.cosim.master import CoSimulationResult
+from gyro_fmu.estimation.observer import ObserverTuning
+from gyro_fmu.model.rate import RateKind, RateProfile
+from gyro_fmu.system.container import build_container, container_start_values, exposed_names
+from gyro_fmu.system.run import run_fmus
+from gyro_fmu.system.scenario import scenario
 
 STOP, STEP = 0.002, 5e-6
 #: Every FMU off its defaults: plant imperfections, rate profile, observer start.

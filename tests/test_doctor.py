@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gyro_fmu import doctor as doc
-from gyro_fmu.parameters import DEFAULT_PRESET, PRESETS
-from gyro_fmu.plant import GyroPlantModel
+from gyro_fmu.doctor import report as doc
+from gyro_fmu.model.parameters import DEFAULT_PRESET, PRESETS
+from gyro_fmu.model.plant import GyroPlantModel
 
 needs_c_host = pytest.mark.skipif(
     not sys.platform.startswith("linux") or doc.find_compiler() is None,
@@ -59,7 +59,7 @@ def test_check_can_fail_without_the_environment(report: doc.DoctorReport) -> Non
 @needs_c_host
 def test_c_host_exits_cleanly(report: doc.DoctorReport) -> None:
     """pythonfmu 0.7.0 frees its interpreter guard twice at exit (SIGABRT in a C host,
-    3 runs of 3 before gyro_fmu.pythonfmu_exit); with the workaround the host exits 0."""
+    3 runs of 3 before gyro_fmu.fmu.pythonfmu_exit); with the workaround the host exits 0."""
     check = report.check
     assert check is not None
     assert check.returncode == 0, check.stdout + check.stderr
@@ -104,7 +104,8 @@ def test_a_non_python_host_loads_the_kernels_the_fmu_ships(models_dir: Path,
     run = doc.run_host(exe, info, {**report.environment(), "NUMBA_DEBUG_CACHE": "1"},
                        "kernels", steps=5, step=5e-6)
     assert run.reached_end, run.stdout + run.stderr
-    shipped = str(info.resources / "gyro_fmu" / "__pycache__" / "observer._ekf_step")
+    shipped = str(info.resources / "gyro_fmu" / "estimation" / "__pycache__"
+                  / "observer._ekf_step")
     loaded = [line for line in run.stdout.splitlines() if "data loaded from" in line]
     assert any(shipped in line for line in loaded), run.stdout[-3000:]
     assert not any("data saved to" in line for line in run.stdout.splitlines())
@@ -120,7 +121,7 @@ def test_kernel_caches_older_than_any_kernel_source_are_neither_shipped_nor_kept
 
     import numba
 
-    from gyro_fmu.kernel_cache import current_cache_files, drop_suspect_caches
+    from gyro_fmu.fmu.kernel_cache import current_cache_files, drop_suspect_caches
 
     pkg = tmp_path / "pkg"
     (pkg / "__pycache__").mkdir(parents=True)

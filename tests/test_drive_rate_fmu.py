@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gyro_fmu.master import Component, run_cosimulation
+from gyro_fmu.cosim.master import Component, run_cosimulation
 
 
 def test_two_tone_drive_is_eq_10(models_dir):

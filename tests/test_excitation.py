@@ -6,9 +6,9 @@ import math
 
 import pytest
 
-from gyro_fmu.drive import TwoToneDrive
-from gyro_fmu.excitation import crb, design_drive, heat_map
-from gyro_fmu.parameters import preset
+from gyro_fmu.estimation.excitation import crb, design_drive, heat_map
+from gyro_fmu.model.drive import TwoToneDrive
+from gyro_fmu.model.parameters import preset
 
 P = preset("park-horowitz")
 DRIVE = TwoToneDrive()  # 4000 + 1200 Hz, 1e-7 N per tone

@@ -12,9 +12,9 @@ from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 from fmu_harness import Instance, assert_bad_input_refused, assert_state_round_trip
 
-from gyro_fmu.build import FMU_NAMES
-from gyro_fmu.parameters import preset
-from gyro_fmu.plant import GyroPlantModel
+from gyro_fmu.fmu.build import FMU_NAMES
+from gyro_fmu.model.parameters import preset
+from gyro_fmu.model.plant import GyroPlantModel
 
 H = 5e-6
 #: Default communication steps other than H: the self-calibration FMUs run at carrier rate

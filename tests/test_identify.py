@@ -5,17 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gyro_fmu.identify import (
+from gyro_fmu.estimation.identify import (
     IdentificationError,
     crb_at,
     identify,
     read_record,
     record_from_result,
 )
-from gyro_fmu.inprocess import run_inprocess
-from gyro_fmu.observability import UNKNOWN_NAMES
-from gyro_fmu.parameters import GyroParameters
-from gyro_fmu.scenario import absolute_noise, scenario
+from gyro_fmu.estimation.observability import UNKNOWN_NAMES
+from gyro_fmu.model.parameters import GyroParameters
+from gyro_fmu.system.inprocess import run_inprocess
+from gyro_fmu.system.scenario import absolute_noise, scenario
 
 
 def _truth(sc):

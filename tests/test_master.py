@@ -16,10 +16,16 @@ import numpy as np
 import pytest
 from pythonfmu.builder import FmuBuilder
 
-from gyro_fmu.build import ensure_current, stale_sources
-from gyro_fmu.master import Component, Connection, CoSimulationError, _unpacked, run_cosimulation
-from gyro_fmu.run import run_fmus
-from gyro_fmu.scenario import scenario
+from gyro_fmu.cosim.master import (
+    Component,
+    Connection,
+    CoSimulationError,
+    _unpacked,
+    run_cosimulation,
+)
+from gyro_fmu.fmu.build import ensure_current, stale_sources
+from gyro_fmu.system.run import run_fmus
+from gyro_fmu.system.scenario import scenario
 
 
 def test_bad_systems_get_errors_that_name_the_problem(models_dir, tmp_path):
@@ -113,12 +119,12 @@ def test_a_stale_fmu_is_found_and_rebuilt(models_dir, tmp_path):
             zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as new:
         for item in old.infolist():
             data = old.read(item.filename)
-            if item.filename == "resources/gyro_fmu/drive.py":
+            if item.filename == "resources/gyro_fmu/model/drive.py":
                 data += b"# an older version\n"
             new.writestr(item, data)
         new.writestr("resources/gyro_fmu/removed_since.py", b"")
     assert stale_sources(fmu, "TwoToneDrive") == [
-        "resources/gyro_fmu/drive.py", "resources/gyro_fmu/removed_since.py"]
+        "resources/gyro_fmu/model/drive.py", "resources/gyro_fmu/removed_since.py"]
     assert ensure_current(("TwoToneDrive",), tmp_path) == [fmu]
     assert stale_sources(fmu, "TwoToneDrive") == []
     assert ensure_current(("TwoToneDrive",), tmp_path) == []
@@ -126,7 +132,7 @@ def test_a_stale_fmu_is_found_and_rebuilt(models_dir, tmp_path):
 
 def _compiled_null_builder():
     """benchmarks/compiled_null.py: do-nothing FMUs compiled from C, optionally refusing."""
-    from gyro_fmu.doctor import find_compiler, fmi2_header_dir
+    from gyro_fmu.doctor.report import find_compiler, fmi2_header_dir
 
     if find_compiler() is None or fmi2_header_dir() is None:
         pytest.skip("needs a C compiler and fmpy's FMI headers")
@@ -181,7 +187,7 @@ def test_ctrl_c_stops_the_run_between_chunks_with_a_keyboard_interrupt(models_di
 
 def test_chunks_of_the_compiled_loop_join_without_a_seam(models_dir, tmp_path, monkeypatch):
     """Row k holds outputs after exactly k steps and t_k = k h, whatever the chunk size."""
-    import gyro_fmu.master as master
+    import gyro_fmu.cosim.master as master
 
     plant = _compiled_null_builder()({"plant": models_dir / "GyroPlant.fmu"}, tmp_path)["plant"]
     components = [Component("drive", models_dir / "TwoToneDrive.fmu"), Component("plant", plant)]
@@ -199,8 +205,8 @@ def test_chunks_of_the_compiled_loop_join_without_a_seam(models_dir, tmp_path, m
 def test_values_of_unconnected_inputs_hold_for_the_whole_run(models_dir):
     """GyroPlant with ux and Omega_z given as values (no connections) equals the library
     stepped with the same held inputs, bit for bit."""
-    from gyro_fmu.parameters import DEFAULT_PRESET, PRESETS
-    from gyro_fmu.plant import GyroPlantModel
+    from gyro_fmu.model.parameters import DEFAULT_PRESET, PRESETS
+    from gyro_fmu.model.plant import GyroPlantModel
 
     plant = Component("plant", models_dir / "GyroPlant.fmu",
                       inputs={"ux": 2e-7, "Omega_z": 10.0})

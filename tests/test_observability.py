@@ -7,9 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from gyro_fmu.drive import TwoToneDrive
-from gyro_fmu.dynamics import HeldInputStepper, held_input_maps
-from gyro_fmu.observability import (
+from gyro_fmu.estimation.observability import (
     DEFAULT_RTOL,
     UNKNOWN_NAMES,
     drive_tones,
@@ -21,7 +19,9 @@ from gyro_fmu.observability import (
     w_kd,
     window_jacobian,
 )
-from gyro_fmu.parameters import PRESET_DRIVE_AMPLITUDE, GyroParameters, preset
+from gyro_fmu.model.drive import TwoToneDrive
+from gyro_fmu.model.dynamics import HeldInputStepper, held_input_maps
+from gyro_fmu.model.parameters import PRESET_DRIVE_AMPLITUDE, GyroParameters, preset
 
 PRESETS = ["park-horowitz", "patent-table1-corrected"]
 H = 5e-6

@@ -1,4 +1,4 @@
-"""Fast tests of gyro_fmu.observer: exactness, convergence, consistency, bad input."""
+"""Fast tests of gyro_fmu.estimation.observer: exactness, convergence, consistency, bad input."""
 
 from __future__ import annotations
 
@@ -8,16 +8,16 @@ import math
 import numpy as np
 import pytest
 
-from gyro_fmu.drive import TwoToneDrive
-from gyro_fmu.dynamics import HeldInputStepper, held_input_maps
-from gyro_fmu.observer import GyroStateObserver, ObserverTuning
-from gyro_fmu.parameters import (
+from gyro_fmu.estimation.observer import GyroStateObserver, ObserverTuning
+from gyro_fmu.model.drive import TwoToneDrive
+from gyro_fmu.model.dynamics import HeldInputStepper, held_input_maps
+from gyro_fmu.model.parameters import (
     PARAMETER_NAMES,
     PRESET_DRIVE_AMPLITUDE,
     GyroParameters,
     preset,
 )
-from gyro_fmu.rate import RateKind, RateProfile
+from gyro_fmu.model.rate import RateKind, RateProfile
 
 H = 5e-6
 SINE = RateProfile(RateKind.sine, offset=0.0, amplitude=1.0, frequency=100.0)

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from gyro_fmu.parameters import (
+from gyro_fmu.model.parameters import (
     PRESETS,
     ParameterError,
     UnstablePlantWarning,

@@ -8,9 +8,9 @@ from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 from reference import held_input_reference
 
-from gyro_fmu.master import Component, Connection, run_cosimulation
-from gyro_fmu.parameters import preset
-from gyro_fmu.rate import RateKind, RateProfile
+from gyro_fmu.cosim.master import Component, Connection, run_cosimulation
+from gyro_fmu.model.parameters import preset
+from gyro_fmu.model.rate import RateKind, RateProfile
 
 H = 5e-6
 

@@ -8,9 +8,9 @@ import zipfile
 import pytest
 from fmpy.validation import validate_fmu
 
-from gyro_fmu.build import FMU_NAMES
 from gyro_fmu.cli import main
-from gyro_fmu.reference import LS_REF_DIR, MANIFEST
+from gyro_fmu.fmu.build import FMU_NAMES
+from gyro_fmu.fmu.reference import LS_REF_DIR, MANIFEST
 
 
 @pytest.mark.parametrize("name", FMU_NAMES)

@@ -15,8 +15,8 @@ import pytest
 
 from gyro_fmu.cli import main
 from gyro_fmu.selfcal.allan import allan_deviation
-from gyro_fmu.selfcal.carrier import CarrierSimulation
 from gyro_fmu.selfcal.estimator import transfer
+from gyro_fmu.selfcal.inprocess import CarrierSimulation
 from gyro_fmu.selfcal.loops import LoopsError, LoopSettings
 from gyro_fmu.selfcal.phasors import PhasorError, phasors, phasors_and_variances
 from gyro_fmu.selfcal.ratetable import rate_table

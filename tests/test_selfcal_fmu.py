@@ -14,11 +14,11 @@ import pytest
 from fmpy import read_model_description
 from fmu_harness import Instance, assert_bad_input_refused, assert_state_round_trip
 
-from gyro_fmu.fmi import UNITS
-from gyro_fmu.selfcal.carrier import COLUMNS, CarrierSimulation
-from gyro_fmu.selfcal.fmu_run import LOOPS_RENAMED, field_comments, run_fmus
+from gyro_fmu.fmu.slave import UNITS
+from gyro_fmu.selfcal.inprocess import COLUMNS, CarrierSimulation
 from gyro_fmu.selfcal.loops import OUTPUTS, LoopSettings, LoopsModel
 from gyro_fmu.selfcal.resonator import ResonatorModel, ResonatorParameters
+from gyro_fmu.selfcal.run import LOOPS_RENAMED, field_comments, run_fmus
 
 H = 25e-6
 

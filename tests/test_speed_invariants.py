@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from gyro_fmu.dynamics import held_input_maps, state_scaling
-from gyro_fmu.master import Component, run_cosimulation
-from gyro_fmu.parameters import GyroParameters, preset, system_matrix
-from gyro_fmu.scenario import CONNECTIONS, INSTANCE_FMUS, scenario
+from gyro_fmu.cosim.master import Component, run_cosimulation
+from gyro_fmu.model.dynamics import held_input_maps, state_scaling
+from gyro_fmu.model.parameters import GyroParameters, preset, system_matrix
+from gyro_fmu.system.scenario import CONNECTIONS, INSTANCE_FMUS, scenario
 
 
 def _scipy_maps(p: GyroParameters, om: float, h: float) -> tuple[np.ndarray, np.ndarray]:

@@ -12,11 +12,11 @@ import pytest
 from fmpy.ssp.ssd import read_ssd
 from pythonfmu.builder import FmuBuilder
 
-from gyro_fmu.master import Component, Connection, run_cosimulation
-from gyro_fmu.rate import RateKind, RateProfile
-from gyro_fmu.run import run_fmus
-from gyro_fmu.scenario import CONNECTIONS, fmu_system, scenario
-from gyro_fmu.ssp import (
+from gyro_fmu.cosim.master import Component, Connection, run_cosimulation
+from gyro_fmu.model.rate import RateKind, RateProfile
+from gyro_fmu.system.run import run_fmus
+from gyro_fmu.system.scenario import CONNECTIONS, fmu_system, scenario
+from gyro_fmu.system.ssp import (
     SSPError,
     relative_differences,
     run_ssp_libcosim,

@@ -9,8 +9,8 @@ import pytest
 
 pytest.importorskip("dask.distributed")
 
-from gyro_fmu.build import MODELS_DIR
-from gyro_fmu.sweep import SweepSpec, ToleranceModel, run_sweep, write_outputs
+from gyro_fmu.fmu.build import MODELS_DIR
+from gyro_fmu.system.sweep import SweepSpec, ToleranceModel, run_sweep, write_outputs
 
 
 def test_tolerance_draws_are_seeded_and_bounded():

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gyro_fmu.inprocess import run_inprocess
-from gyro_fmu.run import run_fmus, summary_of
-from gyro_fmu.scenario import scenario
+from gyro_fmu.system.inprocess import run_inprocess
+from gyro_fmu.system.run import run_fmus, summary_of
+from gyro_fmu.system.scenario import scenario
 
 
 def test_fmu_run_reproduces_the_in_process_library_run_bit_for_bit(models_dir):

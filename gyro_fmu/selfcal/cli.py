@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..parameters import ParameterError
+from ..model.parameters import ParameterError
 from .loops import LoopsError
 from .phasors import PhasorError
 from .resonator import EARTH_RATE, ResonatorError, ResonatorParameters, check_resonator

@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .carrier import CarrierSimulation
+from .inprocess import CarrierSimulation
 from .loops import LoopsError, LoopSettings
 from .resonator import ResonatorParameters
 from .sequence import FeedForward, SelfCalConfig

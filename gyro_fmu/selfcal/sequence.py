@@ -19,7 +19,6 @@ from pathlib import Path
 
 import numpy as np
 
-from .carrier import DEFAULT_STEP, CarrierRecord, CarrierSimulation
 from .estimator import (
     ModeData,
     SidebandFit,
@@ -27,6 +26,7 @@ from .estimator import (
     bias_and_scale_factor_sigma,
     fit_sidebands,
 )
+from .inprocess import DEFAULT_STEP, CarrierRecord, CarrierSimulation
 from .loops import LoopSettings
 from .phasors import phasors, phasors_and_variances
 from .resonator import ResonatorParameters
@@ -132,7 +132,7 @@ def simulate(res: ResonatorParameters, lo: LoopSettings, cfg: SelfCalConfig, see
     """One run from rest on the configured engine: in process, or the two FMUs through
     the fmpy master (bit-identical, tests/test_selfcal_fmu.py; about 80 times slower)."""
     if cfg.engine == "fmu":
-        from .fmu_run import run_fmus
+        from .run import run_fmus
 
         models = Path(cfg.models_dir) if cfg.models_dir else None
         return run_fmus(res, lo, duration, cfg.step, cfg.Omega_z, seed, record_from, models)

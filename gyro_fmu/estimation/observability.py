@@ -8,7 +8,7 @@ W_o = [[C1, 0], [0, W_kd]] is full rank "if the control input includes at least
 two frequencies". The printed eq. 7 is schematic (its C1 drops the damping terms,
 the off-diagonal blocks are not zero, W_kd's entries have typos); this module
 evaluates the exact quantities of the consistent model of
-:func:`gyro_fmu.parameters.system_matrix`.
+:func:`gyro_fmu.model.parameters.system_matrix`.
 
 Two tests are implemented.
 
@@ -19,7 +19,7 @@ Two tests are implemented.
    d/dt ds/dtheta = A ds/dtheta + (dA/dtheta) s + (dB/dtheta) u are appended to
    the state and the augmented linear system is stepped with the same exact
    held-input (zero-order hold, Van Loan expm) map as
-   :mod:`gyro_fmu.dynamics`, so the result is the derivative of exactly what the
+   :mod:`gyro_fmu.model.dynamics`, so the result is the derivative of exactly what the
    plant FMU computes. ``unknowns="parameters"`` analyses the 8 unknowns with
    the trajectory determined by them (the analogue of W_kd);
    ``unknowns="augmented"`` adds the 4 initial states of the window (the
@@ -102,9 +102,9 @@ from typing import Literal
 import numpy as np
 from scipy.linalg import expm
 
-from .drive import TwoToneDrive
-from .dynamics import state_scaling
-from .parameters import GyroParameters, system_matrix
+from ..model.drive import TwoToneDrive
+from ..model.dynamics import state_scaling
+from ..model.parameters import GyroParameters, system_matrix
 
 #: The 4 dynamic states of X (eq. 5).
 STATE_NAMES: tuple[str, ...] = ("x", "vx", "y", "vy")

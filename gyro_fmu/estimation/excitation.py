@@ -5,11 +5,11 @@ evaluates the Cramer-Rao one-sigma bound of Omega_z, kxx, ..., m for every pair
 of tone frequencies of a grid and every split of a force limit F between the two
 tones (A1 = a F, A2 = (1 - a) F, so |ux| <= F), and proposes the pair and split
 that minimize the bound on Omega_z (or a weighted sum of bounds, each divided
-by its tolerance of :mod:`gyro_fmu.metrics`, so the terms are comparable).
+by its tolerance of :mod:`gyro_fmu.estimation.metrics`, so the terms are comparable).
 
 It is the quantitative version of the rank test of
-:mod:`gyro_fmu.observability` and uses its exact sensitivities
-(:func:`gyro_fmu.observability.window_jacobian`: held-input, exact). The model
+:mod:`gyro_fmu.estimation.observability` and uses its exact sensitivities
+(:func:`gyro_fmu.estimation.observability.window_jacobian`: held-input, exact). The model
 is linear in the input, so the sampled outputs and their sensitivities for a
 two-tone drive are a1 * (those of tone 1 alone) + a2 * (tone 2 alone): each
 frequency of the grid is simulated once and every pair/split is a cheap
@@ -37,10 +37,10 @@ from typing import Literal
 
 import numpy as np
 
-from .drive import TwoToneDrive
+from ..model.drive import TwoToneDrive
+from ..model.parameters import GyroParameters, ParameterError
 from .metrics import tolerance
 from .observability import UNKNOWN_NAMES, window_jacobian
-from .parameters import GyroParameters, ParameterError
 
 NoiseKind = Literal["relative", "absolute"]
 
@@ -208,7 +208,7 @@ def design_drive(
 
 
 def natural_frequencies(params: GyroParameters, Omega_z: float = 0.0) -> list[float]:
-    from .parameters import system_matrix
+    from ..model.parameters import system_matrix
 
     ev = np.linalg.eigvals(system_matrix(params, Omega_z))
     return sorted({round(abs(e.imag) / (2 * math.pi), 1) for e in ev if e.imag > 0})

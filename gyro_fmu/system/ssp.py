@@ -33,8 +33,8 @@ from xml.etree import ElementTree as ET
 import numpy as np
 from fmpy import read_model_description
 
-from .build import MODELS_DIR
-from .master import Component, Connection, CoSimulationError
+from ..cosim.master import Component, Connection, CoSimulationError
+from ..fmu.build import MODELS_DIR
 from .scenario import Scenario, fmu_system, scenario
 
 #: Default package written by `write_ssp` for the default scenario.

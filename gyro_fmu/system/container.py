@@ -38,8 +38,8 @@ from xml.etree import ElementTree as ET
 
 from fmpy import read_model_description
 
-from .build import MODELS_DIR
-from .master import CoSimulationError
+from ..cosim.master import CoSimulationError
+from ..fmu.build import MODELS_DIR
 from .scenario import CONNECTIONS, INSTANCE_FMUS, Scenario, fmu_system
 
 CONTAINER_NAME = "GyroSystem"

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from pythonfmu.builder import FmuBuilder
 
-PACKAGE_DIR = Path(__file__).resolve().parent
+PACKAGE_DIR = Path(__file__).resolve().parents[1]
 REPO_DIR = PACKAGE_DIR.parent
 SOURCE_DIR = REPO_DIR / "fmu_src"
 MODELS_DIR = REPO_DIR / "models"
@@ -46,7 +46,7 @@ def build_fmu(name: str, dest: Path = MODELS_DIR, reference: bool = True) -> Pat
         raise FileNotFoundError(
             f"no FMU source {script}: the FMU names are {list(FMU_NAMES)}"
         )
-    from .fmu_docs import add_documentation
+    from .docs import add_documentation
     from .kernel_cache import add_to_fmu, drop_suspect_caches
 
     dest = Path(dest)

@@ -54,7 +54,7 @@ def reference_inputs(model_name: str, stop_time: float, step: float) -> np.ndarr
         return table
     if model_name not in ("GyroPlant", "GyroObserver"):
         return None
-    from .scenario import noise_free_run, scenario
+    from ..system.scenario import noise_free_run, scenario
 
     sc = scenario("default", stop_time=stop_time, step=step)
     t = np.arange(sc.n_steps + 1) * step

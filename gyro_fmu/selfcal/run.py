@@ -6,7 +6,7 @@
   GyroLoops.fmu declare their parameters with it, so a new field cannot be forgotten
   (the build fails until the FMU names its unit).
 - `run_fmus`: GyroResonator.fmu and GyroLoops.fmu through the fmpy master
-  (gyro_fmu.master), recorded as a CarrierRecord. It is bit-identical to
+  (gyro_fmu.cosim.master), recorded as a CarrierRecord. It is bit-identical to
   CarrierSimulation.run, which the tests hold; CarrierSimulation is the fast path for
   long calibration records, this is the same system as importers see it.
 
@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fmi import Var, dataclass_parameters
-from .carrier import COLUMNS, DEFAULT_STEP, CarrierRecord
+from ..fmu.slave import Var, dataclass_parameters
+from .inprocess import COLUMNS, DEFAULT_STEP, CarrierRecord
 from .loops import OUTPUTS as LOOP_OUTPUTS
 from .loops import LoopSettings
 from .resonator import ResonatorParameters
@@ -69,7 +69,7 @@ def parameter_variables(
 ) -> tuple[Var, ...]:
     """FMU parameters for every field of the dataclass cls (keyed by field name below).
 
-    units: the FMI unit (a key of gyro_fmu.fmi.UNITS) of every float field; integer
+    units: the FMI unit (a key of gyro_fmu.fmu.slave.UNITS) of every float field; integer
     fields are Integer parameters without unit. descriptions: replacements of field
     comments that do not read well alone. bounds: {"min": ..., "max": ..., "nominal": ...}
     per field, refused at set time by the FMU. renamed: FMU names of fields whose own
@@ -119,13 +119,13 @@ def run_fmus(
     Same arguments and record as CarrierSimulation(resonator, settings, seed, step,
     Omega_z).run(duration, record_from): columns carrier.COLUMNS, the communication
     points from record_from (s) to the end, both included. Missing FMUs are built
-    into models_dir (default gyro_fmu.build.MODELS_DIR).
+    into models_dir (default gyro_fmu.fmu.build.MODELS_DIR).
 
     The constant rate Omega_z is the value of the resonator's unconnected input
     Omega_z, set once before initialization (an FMI 2.0 input holds its last value).
     """
-    from ..build import MODELS_DIR, ensure_current
-    from ..master import Component, Connection, run_cosimulation
+    from ..cosim.master import Component, Connection, run_cosimulation
+    from ..fmu.build import MODELS_DIR, ensure_current
 
     models_dir = Path(MODELS_DIR if models_dir is None else models_dir)
     ensure_current(SELFCAL_FMUS, models_dir)

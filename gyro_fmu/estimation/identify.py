@@ -7,10 +7,10 @@ plant.x, plant.y`` (pair 1) or ``plant.vx, plant.vy`` (pair 2)).
 
 Model. Exactly what GyroPlant computes: the input recorded at t_k is held over
 [t_k, t_k+1] (zero-order hold) and the state is stepped with the exact
-held-input map (Van Loan expm, :mod:`gyro_fmu.dynamics`). The parameter
+held-input map (Van Loan expm, :mod:`gyro_fmu.model.dynamics`). The parameter
 sensitivities are exact too: the sensitivity equations are appended to the state
 and stepped with the same held-input map (the system of
-:mod:`gyro_fmu.observability`), so the Jacobian handed to
+:mod:`gyro_fmu.estimation.observability`), so the Jacobian handed to
 ``scipy.optimize.least_squares`` is the derivative of exactly the simulated
 output, not a finite difference.
 
@@ -44,8 +44,8 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares
 
+from ..model.parameters import PARAMETER_NAMES, GyroParameters, ParameterError
 from .observability import UNKNOWN_NAMES, _ScaledSensitivitySystem
-from .parameters import PARAMETER_NAMES, GyroParameters, ParameterError
 
 #: Columns holding the two measured signals of each measured pair.
 PAIR_COLUMNS: dict[int, tuple[str, str]] = {1: ("plant.x", "plant.y"), 2: ("plant.vx", "plant.vy")}

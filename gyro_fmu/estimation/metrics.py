@@ -12,7 +12,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .parameters import GyroParameters
+from ..model.parameters import GyroParameters
 
 ESTIMATED = ("Omega_z", "kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m")
 RELATIVE_TOLERANCE = 0.01

@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .master import CoSimulationResult
-from .observer import GyroStateObserver, ObserverTuning
-from .parameters import GyroParameters
-from .plant import MEASURED, GyroPlantModel, MeasurementNoise
+from ..cosim.master import CoSimulationResult
+from ..estimation.observer import GyroStateObserver, ObserverTuning
+from ..model.parameters import GyroParameters
+from ..model.plant import MEASURED, GyroPlantModel, MeasurementNoise
 from .scenario import Scenario, absolute_noise, observer_tuning
 
 ESTIMATED = GyroStateObserver.ESTIMATED

@@ -2,12 +2,12 @@
 
 A :class:`ToleranceModel` (a preset as nominal, a relative spread per parameter,
 normal or uniform, a seed) draws N gyroscopes. Each one runs as a real
-co-simulation of the four FMUs (:func:`gyro_fmu.run.run_fmus`) with the drawn
+co-simulation of the four FMUs (:func:`gyro_fmu.system.run.run_fmus`) with the drawn
 parameters as the plant's truth and the **nominal** values as the observer's
 initial guess, and is reduced to one row: the drawn parameters, final estimates
 and errors, the convergence time of each unknown (stays within tolerance to the
 end of the run: 1% of its truth, 0.1 1/s for a zero damping, 1% of the peak
-rate; :mod:`gyro_fmu.metrics`), whether all 8 are within tolerance at the
+rate; :mod:`gyro_fmu.estimation.metrics`), whether all 8 are within tolerance at the
 deadline, the wall time, and a status ``ok`` or ``failed`` with the reason.
 
 The runs are Dask tasks: a ``dask.distributed.LocalCluster`` (one single-threaded
@@ -36,8 +36,8 @@ from typing import Literal
 
 import numpy as np
 
-from .metrics import ESTIMATED, convergence_time, tolerance
-from .parameters import PARAMETER_NAMES, ParameterError, preset
+from ..estimation.metrics import ESTIMATED, convergence_time, tolerance
+from ..model.parameters import PARAMETER_NAMES, ParameterError, preset
 from .scenario import Scenario, scenario
 
 #: Estimates beyond this many tolerances at the end count as diverged.
@@ -109,7 +109,7 @@ class SweepSpec:
     tuning: Mapping[str, float] = field(default_factory=dict)
 
     def base_scenario(self) -> Scenario:
-        from .rate import RateKind, RateProfile
+        from ..model.rate import RateKind, RateProfile
 
         return scenario(
             "default", preset=self.tolerances.preset, stop_time=self.stop_time, step=self.step,
@@ -128,7 +128,7 @@ def run_gyro(i: int, drawn: Mapping[str, float], spec: SweepSpec, models_dir: st
                  **{f"true_{k}": float(v) for k, v in drawn.items()}}
     start = time.perf_counter()
     try:
-        from .parameters import validate_for_plant
+        from ..model.parameters import validate_for_plant
         from .run import run_fmus
 
         sc = spec.scenario_for(i, drawn)

@@ -11,12 +11,12 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .build import FMU_NAMES, MODELS_DIR, ensure_current
-from .master import CoSimulationResult, run_cosimulation
-from .metrics import ESTIMATED, summarize
-from .parameters import GyroParameters, validate_for_plant
-from .plant import MeasurementNoise
+from .. import __version__
+from ..cosim.master import CoSimulationResult, run_cosimulation
+from ..estimation.metrics import ESTIMATED, summarize
+from ..fmu.build import FMU_NAMES, MODELS_DIR, ensure_current
+from ..model.parameters import GyroParameters, validate_for_plant
+from ..model.plant import MeasurementNoise
 from .scenario import Scenario, absolute_noise, fmu_system, observer_tuning
 
 HAT = {"Omega_z": "Omega_hat"}

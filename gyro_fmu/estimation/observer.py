@@ -9,7 +9,7 @@ Design (each choice measured, see benchmarks/OBSERVER_NOTES.md):
 
 - Same discretization as the plant. In co-simulation ux, uy and Omega_z are held over
   each step; over such a step the model is linear time-invariant and the plant
-  (gyro_fmu.dynamics) integrates it exactly. The observer propagates its mean with the
+  (gyro_fmu.model.dynamics) integrates it exactly. The observer propagates its mean with the
   same exact map (Taylor series of expm to 1e-15, equal to the plant's step to 2e-16),
   because any mismatch in input treatment biases Omega (FIELD-NOTES: 0.2 rad/s).
 - Exact sensitivities. The Jacobian of s(t+h) with respect to the parameters and
@@ -55,8 +55,8 @@ from dataclasses import asdict, dataclass, fields
 import numpy as np
 from numba import njit
 
-from .dynamics import inf_norm_rows
-from .parameters import GyroParameters, check_parameters
+from ..model.dynamics import inf_norm_rows
+from ..model.parameters import GyroParameters, check_parameters
 
 _N_PAR = 7  # kxx, kyy, kxy, dxx, dyy, dxy, b = 1/m
 _I_PAR = 4  # index of the first parameter in the filter state

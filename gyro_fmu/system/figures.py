@@ -10,8 +10,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .master import CoSimulationResult
-from .parameters import PARAMETER_UNITS, GyroParameters
+from ..cosim.master import CoSimulationResult
+from ..model.parameters import PARAMETER_UNITS, GyroParameters
 
 _LABELS = {
     "Omega_z": (r"$\Omega_z$", "rad/s"),

@@ -371,8 +371,8 @@ def host_library_mismatch(resources: Path) -> str | None:
     """
     import re
 
-    from . import __file__ as running_file
-    from . import __version__ as running
+    from .. import __file__ as running_file
+    from .. import __version__ as running
 
     shipped = resources / "gyro_fmu" / "__init__.py"
     if not shipped.is_file() or Path(running_file).resolve() == shipped.resolve():

@@ -45,7 +45,7 @@ from importlib.util import find_spec
 from pathlib import Path
 from xml.etree import ElementTree
 
-from .build import MODELS_DIR
+from ..fmu.build import MODELS_DIR
 
 #: Source of the C host, shipped as package data.
 HOST_SOURCE = Path(__file__).resolve().parent / "chost" / "fmu_host.c"
@@ -498,7 +498,7 @@ def default_fmu(workdir: Path) -> Path:
     fmu = MODELS_DIR / "GyroPlant.fmu"
     if fmu.exists():
         return fmu
-    from .build import build_fmu
+    from ..fmu.build import build_fmu
 
     return build_fmu("GyroPlant", workdir)
 

@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .drive import TwoToneDrive
-from .master import Component, Connection
-from .parameters import (
+from ..cosim.master import Component, Connection
+from ..model.drive import TwoToneDrive
+from ..model.parameters import (
     DEFAULT_PRESET,
     PARAMETER_NAMES,
     PRESET_DRIVE_AMPLITUDE,
@@ -29,8 +29,8 @@ from .parameters import (
     ParameterError,
     preset,
 )
-from .plant import MEASURED, GyroPlantModel, MeasurementNoise
-from .rate import RateKind, RateProfile
+from ..model.plant import MEASURED, GyroPlantModel, MeasurementNoise
+from ..model.rate import RateKind, RateProfile
 
 #: Multipliers from truth to the observer's default initial guess: a part whose
 #: every parameter is a few percent to 20% away from what the observer assumes.
