@@ -1,3 +1,46 @@
-"""gyro_fmu: MEMS vibratory gyroscope FMUs and estimators (US 2011/0314910 A1)."""
+"""gyro_fmu: MEMS vibratory gyroscope FMUs and estimators (US 2011/0314910 A1, US 9,482,553).
 
-__version__ = "0.1.0"
+The public API, imported on first use (``import gyro_fmu`` stays cheap, also inside
+each FMU, which ships this package):
+
+- ``scenario``, ``Scenario``, ``fmu_system``: a gyroscope experiment and its FMU system;
+- ``run_cosimulation``, ``Component``, ``Connection``: the FMI 2.0 co-simulation master;
+- ``preset``, ``GyroParameters``: the gyroscope's parameters;
+- ``GyroStateObserver``, ``ObserverTuning``: the augmented-state observer (eqs. 5-9).
+
+Subpackages, lowest first: ``model`` (physics) and ``cosim`` (master) and ``fmu``
+(pythonfmu tooling); ``estimation``; ``doctor``; ``system`` and ``selfcal``; ``cli``.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+__version__ = "0.2.0"
+
+_EXPORTS = {
+    "scenario": "gyro_fmu.system.scenario",
+    "Scenario": "gyro_fmu.system.scenario",
+    "fmu_system": "gyro_fmu.system.scenario",
+    "run_cosimulation": "gyro_fmu.cosim.master",
+    "Component": "gyro_fmu.cosim.master",
+    "Connection": "gyro_fmu.cosim.master",
+    "preset": "gyro_fmu.model.parameters",
+    "GyroParameters": "gyro_fmu.model.parameters",
+    "GyroStateObserver": "gyro_fmu.estimation.observer",
+    "ObserverTuning": "gyro_fmu.estimation.observer",
+}
+
+__all__ = ["__version__", *_EXPORTS]
+
+
+def __getattr__(name: str) -> object:
+    if name in _EXPORTS:
+        value = getattr(importlib.import_module(_EXPORTS[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'gyro_fmu' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

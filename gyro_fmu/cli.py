@@ -8,6 +8,7 @@ import sys
 import warnings
 from pathlib import Path
 
+from . import __version__
 from .cosim.master import CoSimulationError
 from .fmu.build import FMU_NAMES, MODELS_DIR, build_all
 from .model.parameters import PARAMETER_NAMES, PRESETS, ParameterError, UnstablePlantWarning
@@ -58,8 +59,17 @@ def _scenario_from(args: argparse.Namespace) -> Scenario:
 
 def _cmd_build(args: argparse.Namespace) -> int:
     for path in build_all(Path(args.dest)):
-        print(f"built {path}")
+        print(f"built {path.resolve()}")
     return 0
+
+
+def _ensure_models(models: Path) -> None:
+    """Build missing or stale FMUs into `models` and say where they are."""
+    from .system.run import ensure_fmus
+
+    built = ensure_fmus(models)
+    print(f"FMUs in {models.resolve()}" + (f" (built {', '.join(p.stem for p in built)})"
+                                           if built else ""))
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
@@ -68,6 +78,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     sc = _scenario_from(args)
     fmus = {k: Path(v) for k, v in (f.split("=", 1) for f in args.fmu or [])}
     out = Path(args.out or f"runs/{args.scenario}")
+    if not fmus:
+        _ensure_models(Path(args.models))
     summary = run_and_report(sc, out, Path(args.models), fmus, figures=not args.no_figures)
     for message in summary["warnings"]:
         print(f"warning: {message}", file=sys.stderr)
@@ -312,10 +324,12 @@ def parser() -> argparse.ArgumentParser:
         description="MEMS gyroscope FMUs (US 2011/0314910 A1) and their self-calibration "
                     "(US 9,482,553): build, co-simulate, calibrate, report.",
     )
+    p.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
     b = sub.add_parser("build", help=f"build {', '.join(FMU_NAMES)} into models/")
-    b.add_argument("--dest", default=str(MODELS_DIR), help="output folder (default models/)")
+    b.add_argument("--dest", default=str(MODELS_DIR),
+                   help="output folder (default models/ under the working directory)")
     b.set_defaults(func=_cmd_build)
 
     common = argparse.ArgumentParser(add_help=False)
@@ -324,7 +338,8 @@ def parser() -> argparse.ArgumentParser:
                        help="co-simulate a scenario through the FMUs with fmpy")
     r.add_argument("--fmu", action="append", metavar="INSTANCE=PATH",
                    help="use your FMU for an instance (drive, rate, plant, observer)")
-    r.add_argument("--models", default=str(MODELS_DIR), help="folder of our FMUs")
+    r.add_argument("--models", default=str(MODELS_DIR),
+                   help="folder of our FMUs (default ./models)")
     r.add_argument("--out", help="output folder (default runs/SCENARIO)")
     r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     r.set_defaults(func=_cmd_run)
@@ -386,7 +401,8 @@ def parser() -> argparse.ArgumentParser:
     sw.add_argument("--scheduler", help="address of an existing Dask scheduler "
                                         "(default: a local cluster)")
     sw.add_argument("--workers", type=int, help="local cluster workers (default: all cores)")
-    sw.add_argument("--models", default=str(MODELS_DIR), help="folder of our FMUs")
+    sw.add_argument("--models", default=str(MODELS_DIR),
+                   help="folder of our FMUs (default ./models)")
     sw.add_argument("--out", default="runs/sweep", help="output folder")
     sw.add_argument("--no-figures", action="store_true", help="skip the histograms")
     sw.set_defaults(func=_cmd_sweep)
@@ -402,7 +418,8 @@ def parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("ssp", parents=[common],
                        help="write the scenario's system as an SSP package; --run: in libcosim")
-    s.add_argument("--models", default=str(MODELS_DIR), help="folder of our FMUs")
+    s.add_argument("--models", default=str(MODELS_DIR),
+                   help="folder of our FMUs (default ./models)")
     s.add_argument("--out", help="package file (default MODELS/GyroSystem.ssp)")
     s.add_argument("--run", action="store_true", help="run the package in libcosim")
     s.add_argument("--compare", action="store_true",
@@ -411,7 +428,8 @@ def parser() -> argparse.ArgumentParser:
 
     c = sub.add_parser("container", help="build the whole system as one FMU "
                        "(models/GyroSystem.fmu, fmu-manipulation-toolbox)")
-    c.add_argument("--models", default=str(MODELS_DIR), help="folder of our FMUs")
+    c.add_argument("--models", default=str(MODELS_DIR),
+                   help="folder of our FMUs (default ./models)")
     c.add_argument("--dest", help="container file (default MODELS/GyroSystem.fmu)")
     c.add_argument("--step", type=float, default=5e-6,
                    help="internal fixed step, s (default 5e-6)")

@@ -9,7 +9,6 @@ import pytest
 
 pytest.importorskip("dask.distributed")
 
-from gyro_fmu.fmu.build import MODELS_DIR
 from gyro_fmu.system.sweep import SweepSpec, ToleranceModel, run_sweep, write_outputs
 
 
@@ -27,11 +26,11 @@ def test_tolerance_draws_are_seeded_and_bounded():
         ToleranceModel(spread={"kzz": 0.1})
 
 
-def test_three_gyro_sweep_with_one_failure(tmp_path):
+def test_three_gyro_sweep_with_one_failure(tmp_path, models_dir):
     spec = SweepSpec(tolerances=ToleranceModel(seed=1), n=2, stop_time=0.002, noise=1e-5)
     draws = spec.tolerances.draw(2)
     bad = {**draws[0], "kxy": 1e9}  # K not positive definite: the plant would diverge
-    res = run_sweep(spec, MODELS_DIR, n_workers=2, draws=[draws[0], bad, draws[1]],
+    res = run_sweep(spec, models_dir, n_workers=2, draws=[draws[0], bad, draws[1]],
                     progress=False)
     assert [r["gyro"] for r in res.rows] == [0, 1, 2]
     assert [r["status"] for r in res.rows] == ["ok", "failed", "ok"]

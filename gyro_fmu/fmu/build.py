@@ -1,25 +1,55 @@
 """Build every FMU of fmu_src/ with pythonfmu, shipping the gyro_fmu package inside.
 
-All FMUs ship the same gyro_fmu package: Python caches modules per process,
-so FMUs that shipped different files under one module name would silently
-share the first one loaded (FIELD-NOTES). Slave modules have unique names.
+The slave adapters are the package `gyro_fmu.fmu_src` (the repository's top-level
+fmu_src/, installed inside gyro_fmu by pyproject.toml), so an installed gyro_fmu builds
+its FMUs as a checkout does. FMUs go to `models/` under the working directory unless
+told otherwise: never into the installation.
+
+All FMUs ship the same gyro_fmu package (without fmu_src/: each FMU carries its own
+slave as pythonfmu's top-level script): Python caches modules per process, so FMUs that
+shipped different files under one module name would silently share the first one
+loaded (docs/fmi-notes.md). Slave modules have unique names.
 """
 
 from __future__ import annotations
 
 import functools
 import os
+import shutil
 import tempfile
 import zipfile
 import zlib
+from importlib.util import find_spec
 from pathlib import Path
 
 from pythonfmu.builder import FmuBuilder
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1]
-REPO_DIR = PACKAGE_DIR.parent
-SOURCE_DIR = REPO_DIR / "fmu_src"
-MODELS_DIR = REPO_DIR / "models"
+#: Default folder of the built FMUs: relative, so it is models/ under the working
+#: directory at the time of use.
+MODELS_DIR = Path("models")
+#: Folders of the package that are not shipped inside the FMUs.
+NOT_SHIPPED = ("fmu_src", "__pycache__")
+
+
+def source_dir() -> Path | None:
+    """Folder of the slave sources (package gyro_fmu.fmu_src), or None where gyro_fmu runs
+    without them (from inside an FMU)."""
+    try:
+        spec = find_spec("gyro_fmu.fmu_src")
+    except ImportError:
+        return None
+    if spec is None or not spec.submodule_search_locations:
+        return None
+    return Path(next(iter(spec.submodule_search_locations))).resolve()
+
+
+def shipped_package_files() -> dict[str, Path]:
+    """The gyro_fmu files every FMU carries, by their path inside the archive."""
+    return {f"resources/gyro_fmu/{f.relative_to(PACKAGE_DIR).as_posix()}": f
+            for f in PACKAGE_DIR.rglob("*")
+            if f.is_file() and f.suffix in (".py", ".c")
+            and not set(f.relative_to(PACKAGE_DIR).parts) & set(NOT_SHIPPED)}
 
 #: Capability flags, each true in fact (tests/test_fmu_quality.py holds them).
 CAPABILITIES = {
@@ -41,7 +71,11 @@ def build_fmu(name: str, dest: Path = MODELS_DIR, reference: bool = True) -> Pat
     reference: also simulate its default experiment and store the result inside
     the FMU (fmi-ls-ref), for `gyro-fmu validate` in users' CI.
     """
-    script = SOURCE_DIR / f"{name}.py"
+    sources = source_dir()
+    if sources is None:
+        raise FileNotFoundError("gyro_fmu.fmu_src (the FMU slave sources) is not installed: "
+                                "reinstall gyro_fmu from its wheel or checkout")
+    script = sources / f"{name}.py"
     if not script.exists():
         raise FileNotFoundError(
             f"no FMU source {script}: the FMU names are {list(FMU_NAMES)}"
@@ -54,7 +88,12 @@ def build_fmu(name: str, dest: Path = MODELS_DIR, reference: bool = True) -> Pat
     # Built in a folder of its own and moved into place whole: a process reading
     # dest/NAME.fmu meanwhile sees the old archive or the new one, never a partial one.
     with tempfile.TemporaryDirectory(dir=dest, prefix=f".{name}-") as tmp:
-        path = Path(FmuBuilder.build_FMU(script, dest=tmp, project_files=[PACKAGE_DIR],
+        package = Path(tmp) / "stage" / "gyro_fmu"
+        for archived, f in shipped_package_files().items():
+            target = package / archived.removeprefix("resources/gyro_fmu/")
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(f, target)
+        path = Path(FmuBuilder.build_FMU(script, dest=tmp, project_files=[package],
                                          **CAPABILITIES))
         if reference:
             from .reference import write_reference
@@ -80,17 +119,16 @@ def stale_sources(fmu: Path, name: str) -> list[str]:
     Compares sizes and CRC-32s (the archive stores both), so nothing is decompressed.
     Without a source tree (gyro_fmu running from inside an FMU) there is nothing to
     compare with, and the FMU counts as current."""
-    source = SOURCE_DIR / f"{name}.py"
-    if not source.is_file():
+    sources = source_dir()
+    source = sources / f"{name}.py" if sources else None
+    if source is None or not source.is_file():
         return []
-    tree = {f"resources/{name}.py": source}
-    tree.update({f"resources/gyro_fmu/{f.relative_to(PACKAGE_DIR).as_posix()}": f
-                 for f in PACKAGE_DIR.rglob("*.py")})
+    tree = {f"resources/{name}.py": source, **shipped_package_files()}
     try:
         with zipfile.ZipFile(fmu) as z:
             shipped = {i.filename: (i.file_size, i.CRC) for i in z.infolist()
                        if i.filename in tree or (i.filename.startswith("resources/gyro_fmu/")
-                                                 and i.filename.endswith(".py"))}
+                                                 and i.filename.endswith((".py", ".c")))}
     except (OSError, zipfile.BadZipFile):
         return [str(fmu)]
     return sorted(n for n in tree.keys() | shipped.keys()
@@ -109,7 +147,8 @@ def _size_and_crc_of(path: str, mtime_ns: int, size: int) -> tuple[int, int]:
 
 
 def ensure_current(names: tuple[str, ...] = FMU_NAMES, dest: Path = MODELS_DIR) -> list[Path]:
-    """Build the named FMUs that are missing from dest or stale (stale_sources)."""
+    """Build the named FMUs that are missing from dest or stale (stale_sources); returns
+    the paths built."""
     dest = Path(dest)
     built = []
     for name in names:

@@ -26,9 +26,10 @@ def estimate_column(name: str) -> str:
     return f"observer.{HAT.get(name, name + '_hat')}"
 
 
-def ensure_fmus(models_dir: Path = MODELS_DIR) -> None:
-    """Build the FMUs that are missing from models_dir or older than the sources."""
-    ensure_current(FMU_NAMES, Path(models_dir))
+def ensure_fmus(models_dir: Path = MODELS_DIR) -> list[Path]:
+    """Build the FMUs that are missing from models_dir or older than the sources; returns
+    the paths built."""
+    return ensure_current(FMU_NAMES, Path(models_dir))
 
 
 def run_fmus(
