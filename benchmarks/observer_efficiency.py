@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from gyro_fmu.estimation.identify import crb_at, identify, record_from_result
-from gyro_fmu.estimation.observability import UNKNOWN_NAMES
+from gyro_fmu.model.measurement import UNKNOWNS
 from gyro_fmu.model.parameters import GyroParameters
 from gyro_fmu.system.inprocess import run_inprocess
 from gyro_fmu.system.run import estimate_column
@@ -48,8 +48,8 @@ def one_seed(noise: float, seed: int, tuning: dict[str, float]) -> dict:
     start = GyroParameters(**sc.initial_guess)
     for w in WINDOWS:
         k = int(np.argmin(np.abs(t - w)))
-        obs_err = {n: result[estimate_column(n)][k] - truth[n] for n in UNKNOWN_NAMES}
-        obs_sig = {n: result[f"observer.sigma_{n}"][k] for n in UNKNOWN_NAMES}
+        obs_err = {n: result[estimate_column(n)][k] - truth[n] for n in UNKNOWNS}
+        obs_sig = {n: result[f"observer.sigma_{n}"][k] for n in UNKNOWNS}
         # the observer at t_k has used samples 0..k-1 (its estimate at k is the prediction)
         rec = record_from_result(result, sc.measured_pair, stop_time=w)
         ident = identify(rec, start, sc.Omega_z_0, noise_std=(std.x, std.y))

@@ -12,7 +12,7 @@ from gyro_fmu.estimation.identify import (
     read_record,
     record_from_result,
 )
-from gyro_fmu.estimation.observability import UNKNOWN_NAMES
+from gyro_fmu.model.measurement import UNKNOWNS
 from gyro_fmu.model.parameters import GyroParameters
 from gyro_fmu.system.inprocess import run_inprocess
 from gyro_fmu.system.scenario import absolute_noise, scenario
@@ -32,7 +32,7 @@ def test_recovers_known_parameters_from_a_short_clean_run(tmp_path, pair):
     truth = _truth(sc)
     assert ident.success
     assert abs(ident.estimates["Omega_z"] - 1.0) < 1e-8
-    for name in UNKNOWN_NAMES[1:]:
+    for name in UNKNOWNS[1:]:
         assert ident.estimates[name] == pytest.approx(truth[name], rel=1e-8), name
     assert ident.noise_estimated and max(ident.residual_rms) < 1e-12 * np.abs(rec.z).max()
 
@@ -45,7 +45,7 @@ def test_noisy_fit_is_consistent_with_its_bound():
     ident = identify(rec, GyroParameters(**sc.initial_guess), 0.0)
     truth = _truth(sc)
     bound = crb_at(sc.params, 1.0, rec, (std.x, std.y))
-    for name in UNKNOWN_NAMES:
+    for name in UNKNOWNS:
         assert abs(ident.estimates[name] - truth[name]) < 5 * bound[name], name
         assert ident.crb_sigma[name] == pytest.approx(bound[name], rel=0.1), name
     # the noise estimated from residuals matches the noise put in

@@ -9,7 +9,7 @@ import pytest
 
 from gyro_fmu.estimation.observability import (
     DEFAULT_RTOL,
-    UNKNOWN_NAMES,
+    UNKNOWNS,
     drive_tones,
     lie_observability_matrix,
     max_identifiable_combinations,
@@ -39,7 +39,7 @@ def one_tone(name: str, f: float = 2500.0) -> TwoToneDrive:
 def _with_param(p: GyroParameters, Om: float, i: int, value: float) -> tuple[GyroParameters, float]:
     if i == 0:
         return p, value
-    return p.with_overrides(**{UNKNOWN_NAMES[i]: value}), Om
+    return p.with_overrides(**{UNKNOWNS[i]: value}), Om
 
 
 def _theta(p: GyroParameters, Om: float) -> np.ndarray:
@@ -138,7 +138,7 @@ def test_sensitivities_match_finite_differences_of_the_held_input_plant() -> Non
         # each channel weighed by its own peak, as in the Gramian
         peak = np.abs(z).max(axis=0)
         err = np.abs((fd - dz[:, :, i]) / peak).max() / np.abs(dz[:, :, i] / peak).max()
-        assert err < 1e-6, (UNKNOWN_NAMES[i], err)
+        assert err < 1e-6, (UNKNOWNS[i], err)
 
 
 def test_steady_orbit_is_periodic_under_the_held_input_stepper() -> None:

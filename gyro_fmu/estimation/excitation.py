@@ -38,31 +38,23 @@ from typing import Literal
 import numpy as np
 
 from ..model.drive import TwoToneDrive
+from ..model.measurement import UNKNOWNS
 from ..model.parameters import GyroParameters, ParameterError
+from . import fisher
 from .metrics import tolerance
-from .observability import UNKNOWN_NAMES, window_jacobian
+from .sensitivity import window_jacobian
 
 NoiseKind = Literal["relative", "absolute"]
 
 
 def tolerances(params: GyroParameters, Omega_z: float) -> np.ndarray:
-    """The metrics tolerance of each unknown, in UNKNOWN_NAMES order (metrics.tolerance)."""
+    """The metrics tolerance of each unknown, in UNKNOWNS order (metrics.tolerance)."""
     values = {"Omega_z": Omega_z, **params.as_dict()}
-    return np.array([tolerance(n, np.array([values[n]])) for n in UNKNOWN_NAMES])
+    return np.array([tolerance(n, np.array([values[n]])) for n in UNKNOWNS])
 
 
 def _crb_from_fisher(F: np.ndarray, scales: np.ndarray) -> np.ndarray:
-    d = np.sqrt(np.diag(F))
-    d = np.where(d > 0, d, 1.0)
-    Fn = F / d[:, None] / d[None, :]
-    w, V = np.linalg.eigh(Fn)
-    if w[-1] <= 0:
-        return np.full(F.shape[0], math.inf)
-    keep = w > 1e-14 * w[-1]
-    var = (V[:, keep] ** 2) @ (1.0 / w[keep])
-    unobs = np.sum(V[:, ~keep] ** 2, axis=1) > 1e-12 if (~keep).any() else np.zeros(len(w), bool)
-    sig = np.sqrt(var) / d * scales
-    return np.where(unobs, math.inf, sig)
+    return fisher.standard_deviations_from_fisher(F) * scales
 
 
 def crb(
@@ -81,7 +73,7 @@ def crb(
     std = _std(z, noise, noise_kind)
     J = (dz / std[None, :, None]).reshape(-1, dz.shape[2])
     sig = _crb_from_fisher(J.T @ J, scales)
-    return dict(zip(UNKNOWN_NAMES, (float(v) for v in sig), strict=True))
+    return dict(zip(UNKNOWNS, (float(v) for v in sig), strict=True))
 
 
 def _std(z: np.ndarray, noise: float, kind: NoiseKind) -> np.ndarray:
@@ -129,11 +121,11 @@ class DriveDesign:
     @property
     def proposal_sigma(self) -> dict[str, float]:
         i, j, s = self.best_index
-        return dict(zip(UNKNOWN_NAMES, (float(v) for v in self.sigma[i, j, s]), strict=True))
+        return dict(zip(UNKNOWNS, (float(v) for v in self.sigma[i, j, s]), strict=True))
 
     def best_over_splits(self, name: str = "Omega_z") -> np.ndarray:
         """(n, n) bound on `name` at the split that minimizes the objective at each pair."""
-        k = UNKNOWN_NAMES.index(name)
+        k = UNKNOWNS.index(name)
         obj = np.where(np.isnan(self.objective), np.inf, self.objective)
         s = np.argmin(obj, axis=2)
         out = np.take_along_axis(self.sigma[..., k], s[..., None], axis=2)[..., 0]
@@ -143,7 +135,7 @@ class DriveDesign:
         i = int(np.argmin(np.abs(self.frequencies - f1)))
         j = int(np.argmin(np.abs(self.frequencies - f2)))
         s = int(np.argmin(np.abs(self.splits - split)))
-        return dict(zip(UNKNOWN_NAMES, (float(v) for v in self.sigma[i, j, s]), strict=True))
+        return dict(zip(UNKNOWNS, (float(v) for v in self.sigma[i, j, s]), strict=True))
 
 
 def design_drive(
@@ -171,10 +163,10 @@ def design_drive(
     if freqs[-1] >= nyquist:
         raise ParameterError(f"frequencies must stay below the Nyquist frequency {nyquist:g} Hz")
     weights = dict(weights or {"Omega_z": 1.0})
-    bad = sorted(set(weights) - set(UNKNOWN_NAMES))
+    bad = sorted(set(weights) - set(UNKNOWNS))
     if bad:
-        raise ParameterError(f"unknown weight name(s) {bad}: use {list(UNKNOWN_NAMES)}")
-    w = np.array([weights.get(n, 0.0) for n in UNKNOWN_NAMES]) / tolerances(params, Omega_z)
+        raise ParameterError(f"unknown weight name(s) {bad}: use {list(UNKNOWNS)}")
+    w = np.array([weights.get(n, 0.0) for n in UNKNOWNS]) / tolerances(params, Omega_z)
     splits_a = np.asarray(splits, float)
     if np.any((splits_a <= 0) | (splits_a >= 1)):
         raise ParameterError("splits must lie strictly between 0 and 1")
@@ -190,7 +182,7 @@ def design_drive(
     n = freqs.size
     # Gram blocks per channel: G[c, i, j] = D_i[:, c]^T D_j[:, c]
     G = np.einsum("inca,jncb->cijab", D, D, optimize=True)
-    sigma = np.full((n, n, splits_a.size, len(UNKNOWN_NAMES)), np.nan)
+    sigma = np.full((n, n, splits_a.size, len(UNKNOWNS)), np.nan)
     for i in range(n):
         for j in range(n):
             if i == j:
@@ -222,7 +214,7 @@ def heat_map(design: DriveDesign, path: Path, name: str = "Omega_z") -> Path:
     import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm
 
-    from .identify import UNITS
+    from ..model.measurement import UNKNOWN_UNITS
 
     data = design.best_over_splits(name)
     f = design.frequencies
@@ -233,7 +225,7 @@ def heat_map(design: DriveDesign, path: Path, name: str = "Omega_z") -> Path:
                             [f[-1] + (f[-1] - f[-2]) / 2]])
     mesh = ax.pcolormesh(edges, edges, data.T, norm=norm, cmap="viridis_r", shading="flat")
     cb = fig.colorbar(mesh, ax=ax)
-    cb.set_label(f"Cramer-Rao 1-sigma of {name} ({UNITS[name]})")
+    cb.set_label(f"Cramer-Rao 1-sigma of {name} ({UNKNOWN_UNITS[name]})")
     p = design.proposal
     ax.plot(p.f1, p.f2, "r*", ms=14, label=f"proposal {p.f1:g} + {p.f2:g} Hz "
             f"(A1 {p.A1:.3g}, A2 {p.A2:.3g} N)")

@@ -44,15 +44,14 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares
 
+from ..model.measurement import UNKNOWN_UNITS, UNKNOWNS, MeasuredPair
 from ..model.parameters import PARAMETER_NAMES, GyroParameters, ParameterError
-from .observability import UNKNOWN_NAMES, _ScaledSensitivitySystem
+from . import fisher
+from .sensitivity import ScaledSensitivitySystem
 
 #: Columns holding the two measured signals of each measured pair.
-PAIR_COLUMNS: dict[int, tuple[str, str]] = {1: ("plant.x", "plant.y"), 2: ("plant.vx", "plant.vy")}
-_ROWS = {1: (0, 2), 2: (1, 3)}
-#: Units of the 8 unknowns.
-UNITS = {"Omega_z": "rad/s", "kxx": "1/s2", "kyy": "1/s2", "kxy": "1/s2", "dxx": "1/s",
-         "dyy": "1/s", "dxy": "1/s", "m": "kg"}
+PAIR_COLUMNS: dict[int, tuple[str, str]] = {
+    pair: tuple(f"plant.{name}" for name in pair.plant_outputs) for pair in MeasuredPair}
 
 
 class IdentificationError(ParameterError):
@@ -175,20 +174,18 @@ class _Model:
             return self._val
         p, Om, s0 = self.theta(delta)
         rec = self.record
-        sys = _ScaledSensitivitySystem.build(p, Om, rec.h)
+        sys = ScaledSensitivitySystem.build(p, Om, rec.h)
         sigma0 = np.zeros(sys.Phi.shape[0])
         sigma0[:4] = s0 * sys.T
         sigma = sys.simulate(sigma0, rec.u)
         s, dS = sys.unscale(sigma)  # dS[..., i, :] = scales_i ds/dtheta_i
-        rows = list(_ROWS[rec.measured_pair])
+        rows = list(MeasuredPair(rec.measured_pair).state_rows)
         z = s[:, rows]
         dth = np.moveaxis(dS[:, :, rows], 1, 2) / sys.scales  # (N, 2, 8) d z / d theta
         # chain rule to delta
         dtheta_ddelta = self.c.copy()
-        g = 1.0 / p.m
         g_ref = 1.0 / self.ref[7]
         dtheta_ddelta[7] = -(p.m**2) * g_ref  # dm/ddelta_m = dm/dg * g_ref
-        _ = g
         dz = dth * dtheta_ddelta
         if self.fit_s0:
             Phi4 = sys.Phi[:4, :4] / sys.T[:, None] * sys.T[None, :]
@@ -227,19 +224,19 @@ class Identification:
     covariance: np.ndarray = field(repr=False)  #: of the 8 unknowns (SI), initial state excluded
 
     def error(self, truth: GyroParameters, Omega_z: float) -> dict[str, float]:
-        values = dict(zip(UNKNOWN_NAMES, _theta(truth, Omega_z), strict=True))
-        return {n: self.estimates[n] - values[n] for n in UNKNOWN_NAMES}
+        values = dict(zip(UNKNOWNS, _theta(truth, Omega_z), strict=True))
+        return {n: self.estimates[n] - values[n] for n in UNKNOWNS}
 
     def table(self, truth: dict[str, float] | None = None) -> str:
         lines = [f"{'unknown':>8} {'estimate':>15} {'CRB 1-sigma':>12} "
                  + (f"{'truth':>15} {'err/sigma':>9} " if truth else "") + "unit"]
-        for n in UNKNOWN_NAMES:
+        for n in UNKNOWNS:
             e, s = self.estimates[n], self.crb_sigma[n]
             extra = ""
             if truth is not None:
                 z = (e - truth[n]) / s if s > 0 else math.nan
                 extra = f"{truth[n]:15.9g} {z:9.2f} "
-            lines.append(f"{n:>8} {e:15.9g} {s:12.3g} {extra}{UNITS[n]}")
+            lines.append(f"{n:>8} {e:15.9g} {s:12.3g} {extra}{UNKNOWN_UNITS[n]}")
         return "\n".join(lines)
 
 
@@ -295,7 +292,7 @@ def identify(
     z, dz = model.evaluate(delta)
     r = z - record.z
     J = (dz / std[None, :, None]).reshape(-1, model.n_par)
-    cov_delta = _inverse_fisher(J)
+    cov_delta = fisher.covariance(J)
     p, Om, s0 = model.theta(delta)
     th = _theta(p, Om)
     # d theta / d delta at the solution (diagonal)
@@ -304,8 +301,8 @@ def identify(
     cov = cov_delta[:8, :8] * d[:, None] * d[None, :]
     sig = np.sqrt(np.clip(np.diag(cov), 0, None))
     return Identification(
-        estimates=dict(zip(UNKNOWN_NAMES, (float(v) for v in th), strict=True)),
-        crb_sigma=dict(zip(UNKNOWN_NAMES, (float(v) for v in sig), strict=True)),
+        estimates=dict(zip(UNKNOWNS, (float(v) for v in th), strict=True)),
+        crb_sigma=dict(zip(UNKNOWNS, (float(v) for v in sig), strict=True)),
         noise_std=(float(std[0]), float(std[1])),
         noise_estimated=estimated,
         residual_rms=tuple(float(v) for v in np.sqrt(np.mean(r**2, axis=0))),  # type: ignore[arg-type]
@@ -337,21 +334,6 @@ def _solve(model: _Model, delta0: np.ndarray, std: np.ndarray, max_nfev: int):
                          ftol=1e-15, xtol=1e-15, gtol=1e-15, max_nfev=max_nfev)
 
 
-def _inverse_fisher(J: np.ndarray) -> np.ndarray:
-    """(J^T J)^-1 by SVD of the column-equilibrated J (inf variance where unidentifiable)."""
-    norms = np.linalg.norm(J, axis=0)
-    norms = np.where(norms > 0, norms, 1.0)
-    _, sv, Vt = np.linalg.svd(J / norms, full_matrices=False)
-    keep = sv > 1e-12 * sv[0]
-    V = Vt[keep].T
-    cov = (V / sv[keep] ** 2) @ V.T
-    cov = cov / norms[:, None] / norms[None, :]
-    if not keep.all():
-        null = np.sum(Vt[~keep].T ** 2, axis=1) > 1e-12
-        cov[null, :] = cov[:, null] = math.inf
-    return cov
-
-
 def crb_at(
     params: GyroParameters,
     Omega_z: float,
@@ -363,11 +345,11 @@ def crb_at(
     model = _Model(record, _theta(params, Omega_z), fit_initial_state)
     _, dz = model.evaluate(np.zeros(model.n_par))
     std = np.asarray(noise_std, float)
-    cov = _inverse_fisher((dz / std[None, :, None]).reshape(-1, model.n_par))
+    cov = fisher.covariance((dz / std[None, :, None]).reshape(-1, model.n_par))
     d = model.c[:8].copy()
     d[7] = params.m
     sig = np.sqrt(np.clip(np.diag(cov)[:8], 0, None)) * d
-    return dict(zip(UNKNOWN_NAMES, (float(v) for v in sig), strict=True))
+    return dict(zip(UNKNOWNS, (float(v) for v in sig), strict=True))
 
 
 def parameters_of(ident: Identification) -> GyroParameters:

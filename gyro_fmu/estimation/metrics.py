@@ -12,9 +12,10 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..model.measurement import UNKNOWNS
 from ..model.parameters import GyroParameters
 
-ESTIMATED = ("Omega_z", "kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m")
+ESTIMATED = UNKNOWNS
 RELATIVE_TOLERANCE = 0.01
 ZERO_DAMPING_TOLERANCE = 0.1  #: 1/s, where a damping's truth is 0
 

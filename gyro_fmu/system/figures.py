@@ -11,6 +11,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from ..cosim.master import CoSimulationResult
+from ..model.measurement import UNKNOWNS
 from ..model.parameters import PARAMETER_UNITS, GyroParameters
 
 _LABELS = {
@@ -58,8 +59,7 @@ def fig4_estimates(result: CoSimulationResult, truth: GyroParameters, path: Path
     """Fig. 4A-4H: the 8 estimates (with 1-sigma band) against their truths over time."""
     t = result["time"] * 1e3
     fig, axes = plt.subplots(4, 2, figsize=(11, 11), sharex=True)
-    for ax, name in zip(axes.flat, ("Omega_z", "kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m"),
-                        strict=True):
+    for ax, name in zip(axes.flat, UNKNOWNS, strict=True):
         column = "observer.Omega_hat" if name == "Omega_z" else f"observer.{name}_hat"
         est, sig = result[column], result[f"observer.sigma_{name}"]
         true = (result["rate.Omega_z"] if name == "Omega_z"
