@@ -196,7 +196,7 @@ def test_start_from_rest_transient_acts_as_extra_tones() -> None:
     [("park-horowitz", 0.029, 0.052), ("patent-table1-corrected", 0.033, 0.059)],
 )
 def test_cramer_rao_agrees_with_field_notes(name: str, om: float, dxy: float) -> None:
-    """FIELD-NOTES: 40 ms, 200 kHz, 2500 + 1200 Hz, noise 1e-4 of each signal's peak."""
+    """docs/observability.md: 40 ms, 200 kHz, 2500 + 1200 Hz, noise 1e-4 of each peak."""
     sig = observability_report(preset(name), two_tones(name), start="rest").one_sigma(1e-4)
     assert sig["Omega_z"] == pytest.approx(om, rel=0.05)
     assert sig["dxy"] == pytest.approx(dxy, rel=0.05)

@@ -339,7 +339,7 @@ def _addresses(arrays: Sequence[np.ndarray]) -> np.ndarray:
 
 #: FMU archives unpacked in this process: (path, mtime, size) -> directory. Unpacking
 #: (about 60 files per FMU) cost more than a 20,000-step run's stepping of drive and rate
-#: together (benchmarks/PERF_NOTES.md); FMI resources are read-only, so every instance of
+#: together (docs/performance.md); FMI resources are read-only, so every instance of
 #: an unchanged archive shares one directory, removed when the process ends.
 _UNPACKED: dict[tuple[str, int, int], tempfile.TemporaryDirectory] = {}
 

@@ -1,7 +1,7 @@
 """The master's stepping loop, compiled: raw FMI 2.0 calls from numba, no Python per call.
 
 Each FMI call from a Python loop costs ~1-2 us of ctypes work on top of what the FMU
-does (benchmarks/PERF_NOTES.md); over 10 calls per communication step that was more
+does (docs/performance.md); over 10 calls per communication step that was more
 than the whole in-process computation. Here the loop is compiled and calls the FMUs'
 fmi2GetReal / fmi2SetReal / fmi2DoStep through their addresses, exactly as a C master
 would. The calls, their order and their arguments are those of the Python loop it

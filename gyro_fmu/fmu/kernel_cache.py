@@ -5,7 +5,7 @@ A Python host runs its own gyro_fmu (modules are cached per process), whose kern
 cached next to its sources. A non-Python host (libcosim, OMSimulator, a C master) runs
 the copy an FMU carries, unpacked to a fresh folder: numba found no cache there and
 compiled the observer's kernels in every process (13.7 s for 200 steps of
-GyroObserver.fmu in the C host of `gyro-fmu doctor`, benchmarks/PERF_NOTES.md).
+GyroObserver.fmu in the C host of `gyro-fmu doctor`, docs/performance.md).
 
 numba keys a cache on the SHA-256 of the function's own source file, its own version,
 the function's bytecode and the CPU, not on paths. So the build adds to the FMU the

@@ -9,7 +9,7 @@ and implements `setup()` and `advance()` (and, when it keeps library objects,
   InitialUnknowns, output dependencies, a DefaultExperiment;
 - never lets a Python exception escape a callback. pythonfmu's binary maps any
   exception to fmi2Fatal (after which fmi2Terminate crashes the importer,
-  FIELD-NOTES) and ignores what setters return, so the only recoverable status
+  docs/fmi-notes.md) and ignores what setters return, so the only recoverable status
   it can deliver is fmi2Discard from fmi2DoStep. Bad values are therefore
   refused at set time with an error-level log message (the previous value is
   kept) and the next fmi2DoStep returns fmi2Discard without advancing;
@@ -19,8 +19,8 @@ and implements `setup()` and `advance()` (and, when it keeps library objects,
 
 Inside an FMU, the base class also installs `pythonfmu_exit`: pythonfmu 0.7.0
 frees its interpreter guard twice at process exit, which aborts non-Python hosts
-(measured with `gyro-fmu doctor`; FIELD-NOTES blamed the numpy import, but the
-abort is the double free and follows numpy or scipy being loaded at all).
+(measured with `gyro-fmu doctor`: the abort is the double free and follows numpy or
+scipy being loaded at all, not the place of the numpy import; docs/fmi-notes.md).
 """
 
 from __future__ import annotations

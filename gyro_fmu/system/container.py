@@ -9,7 +9,7 @@ FMUCT builds a working container from a few declarative rules (links, exposed
 inputs/parameters/outputs) and exposes embedded parameters as container
 parameters, while fmpy 0.3.32's container needs a hand-made modelDescription
 and two work-arounds (connection type "Real" where its binary wants "Float64";
-value reference 0 taken as time, FIELD-NOTES).
+value reference 0 taken as time; docs/engines.md).
 
 Top-level interface (`exposed_names`): every parameter and every Real output of
 the four FMUs under its own name (kxx ... m, noise_*, seed of the plant; kind,

@@ -7,7 +7,7 @@ plant measurements -> observer) for the fmpy master.
 Noise convention: `noise` is relative. Each measured signal gets white Gaussian
 noise whose standard deviation is `noise` times that signal's own peak |value|
 over the noise-free run (so the small y signal is not buried under a noise
-floor set by the much larger x; FIELD-NOTES).
+floor set by the much larger x; docs/observability.md).
 """
 
 from __future__ import annotations

@@ -8,12 +8,12 @@ run the same system our fmpy master runs.
 `run_ssp_libcosim` runs such a package in libcosim (the Open Simulation Platform
 engine, through libcosimpy). Why libcosim: of the SSP importers installable from
 PyPI it is the one that applies ParameterBindings (fmpy.ssp ignores them,
-FIELD-NOTES). Its fixed-step algorithm is the same Jacobi scheme as our master;
+docs/engines.md). Its fixed-step algorithm is the same Jacobi scheme as our master;
 only its integer-nanosecond clock differs, which leaves about 1e-9 relative
 differences in Omega_hat after 100 ms (see `run_ssp_libcosim`).
 
 Two libcosim traits shape the file. It rejects connectors on the system itself
-(FIELD-NOTES), so the package has component connectors only; every component
+(docs/engines.md), so the package has component connectors only; every component
 lists its inputs, outputs and bound parameters. And a fixed step is not part of
 the SSP standard, so the step is written as the OSP annotation
 `osp:FixedStepAlgorithm` in DefaultExperiment, where libcosim's parser looks
