@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 from pythonfmu.builder import FmuBuilder
 
+from gyro_fmu.cosim.instances import unpacked
 from gyro_fmu.cosim.master import (
     Component,
     Connection,
     CoSimulationError,
-    _unpacked,
     run_cosimulation,
 )
 from gyro_fmu.fmu.build import ensure_current, stale_sources
@@ -100,11 +100,11 @@ def test_the_master_leaves_the_hosts_sys_path_as_it_found_it(models_dir):
 def test_an_archive_is_unpacked_once_until_it_changes(models_dir, tmp_path):
     fmu = tmp_path / "TwoToneDrive.fmu"
     shutil.copy(models_dir / "TwoToneDrive.fmu", fmu)
-    first = _unpacked(fmu)
-    assert _unpacked(fmu) == first and Path(first, "modelDescription.xml").is_file()
+    first = unpacked(fmu)
+    assert unpacked(fmu) == first and Path(first, "modelDescription.xml").is_file()
     stat = fmu.stat()
     os.utime(fmu, ns=(stat.st_atime_ns, stat.st_mtime_ns + 10**9))  # "rebuilt"
-    second = _unpacked(fmu)
+    second = unpacked(fmu)
     assert second != first and not Path(first).exists()
     result = run_cosimulation([Component("drive", fmu)], [], 1e-4, 5e-6)
     assert result["drive.ux"][-1] != 0.0

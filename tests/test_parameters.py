@@ -31,7 +31,7 @@ def test_table1_as_printed_is_refused_with_eigenvalues_and_a_remedy():
         validate_for_plant(PRESETS["patent-table1"])
     text = str(info.value)
     assert "not positive definite" in text
-    assert "-1.967e+08" in text and "5.84e+08" in text  # K of Table 1: eigenvalues +5.84e8, -1.97e8 1/s2
+    assert "-1.967e+08" in text and "5.84e+08" in text  # eigenvalues of K, Table 1
     assert "park-horowitz" in text
 
 

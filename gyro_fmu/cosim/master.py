@@ -10,144 +10,39 @@ setReal (all its connected inputs): the fewest calls FMI 2.0 allows.
 from __future__ import annotations
 
 import signal
-import sys
-import tempfile
 import threading
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
-from ctypes import c_char_p, c_void_p, cast
-from dataclasses import dataclass, field
-from pathlib import Path
+from ctypes import c_void_p, cast
 
 import numpy as np
-from fmpy import extract, read_model_description
-from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (  # type: ignore[attr-defined]
     FMU2Slave,
-    calloc,
-    fmi2CallbackAllocateMemoryTYPE,
-    fmi2CallbackFreeMemoryTYPE,
-    fmi2CallbackFunctions,
-    fmi2CallbackLoggerTYPE,
-    free,
 )
 
+from .instances import (
+    Instance,
+    LogCollector,
+    fmi2_callbacks,
+    initialize,
+    instantiate,
+    release,
+    split_reference,
+    units_of,
+    variable,
+)
 from .stepping import GET, SET, step_loop
+from .system import Component, Connection, CoSimulationError, CoSimulationResult
 
-
-class CoSimulationError(RuntimeError):
-    """A co-simulation could not be set up or an FMU refused a step."""
-
-
-@dataclass(frozen=True)
-class Component:
-    """One FMU instance: a name used in connections, its file, parameter values, and
-    values for inputs that no connection drives (set before initialization; an FMI 2.0
-    input keeps the last value set, so they hold for the whole run)."""
-
-    name: str
-    fmu: Path
-    parameters: Mapping[str, float | int] = field(default_factory=dict)
-    inputs: Mapping[str, float | int] = field(default_factory=dict)
-
-
-@dataclass(frozen=True)
-class Connection:
-    """Output `src` ("instance.variable") feeds input `dst` ("instance.variable")."""
-
-    src: str
-    dst: str
-
-    @classmethod
-    def parse(cls, text: str) -> Connection:
-        """From 'drive.ux->plant.ux'."""
-        try:
-            src, dst = (s.strip() for s in text.split("->"))
-        except ValueError:
-            raise CoSimulationError(
-                f"connection {text!r} must read 'instance.output->instance.input'"
-            ) from None
-        return cls(src, dst)
-
-
-class LogCollector:
-    """Keeps every FMU log message, so an error can quote what the FMU said."""
-
-    def __init__(self) -> None:
-        #: (instance, status, category, message) of every message, in order
-        self.messages: list[tuple[str, int, str, str]] = []
-
-    def __call__(self, env: c_void_p, instance: c_char_p, status: int, category: c_char_p,
-                 message: c_char_p) -> None:
-        def text(b: bytes | None) -> str:
-            return (b or b"").decode("utf-8", "replace")
-
-        self.messages.append((text(instance), int(status), text(category), text(message)))
-
-    def recent(self, instance: str, count: int = 5) -> str:
-        lines = [m for name, status, _, m in self.messages if name == instance and status > 0]
-        return "\n".join(lines[-count:]) or "(the FMU logged nothing)"
-
-
-def fmi2_callbacks(logger: LogCollector) -> fmi2CallbackFunctions:
-    callbacks = fmi2CallbackFunctions()
-    callbacks.logger = fmi2CallbackLoggerTYPE(logger)
-    callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-    callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-    return callbacks
-
-
-@dataclass
-class _Instance:
-    component: Component
-    description: object
-    unzip_dir: str
-    slave: FMU2Slave
-    variables: dict  # name -> ScalarVariable
-    out_vrs: list[int] = field(default_factory=list)
-    in_vrs: list[int] = field(default_factory=list)
-
-
-@dataclass(frozen=True)
-class CoSimulationResult:
-    """Recorded signals: `data[:, j]` is column `columns[j]` ("time" first)."""
-
-    columns: tuple[str, ...]
-    data: np.ndarray
-    units: dict[str, str]
-
-    def __getitem__(self, name: str) -> np.ndarray:
-        try:
-            return self.data[:, self.columns.index(name)]
-        except ValueError:
-            raise KeyError(f"no recorded signal {name!r}; recorded: {list(self.columns)}") from None
-
-    def write_csv(self, path: Path) -> None:
-        header = ",".join(self.columns)
-        np.savetxt(path, self.data, delimiter=",", header=header, comments="", fmt="%.17g")
-
-
-def _split(ref: str) -> tuple[str, str]:
-    name, _, var = ref.partition(".")
-    if not var:
-        raise CoSimulationError(f"{ref!r} must read 'instance.variable'")
-    return name, var
-
-
-def _variable(inst: _Instance, var: str, causality: Iterable[str], ref: str):
-    v = inst.variables.get(var)
-    if v is None:
-        raise CoSimulationError(
-            f"{ref!r}: {inst.component.fmu.name} has no variable {var!r}; "
-            f"it has {sorted(inst.variables)}"
-        )
-    if v.causality not in causality:
-        raise CoSimulationError(
-            f"{ref!r}: variable {var!r} is a {v.causality}, expected {'/'.join(causality)}"
-        )
-    if v.type != "Real":
-        raise CoSimulationError(f"{ref!r}: only Real connections are supported, not {v.type}")
-    return v
+__all__ = [
+    "CoSimulationError",
+    "CoSimulationResult",
+    "Component",
+    "Connection",
+    "LogCollector",
+    "fmi2_callbacks",
+    "run_cosimulation",
+]
 
 
 def run_cosimulation(
@@ -173,24 +68,25 @@ def run_cosimulation(
     n_steps = round((stop_time - start_time) / step)
     logger = LogCollector()
     callbacks = fmi2_callbacks(logger)
-    instances: dict[str, _Instance] = {}
+    instances: dict[str, Instance] = {}
     try:
         for comp in components:
-            instances[comp.name] = _instantiate(comp, callbacks)
+            instances[comp.name] = instantiate(comp, callbacks)
         outputs = _OutputTable(instances)
         wiring = _wire(outputs, connections)
         columns, getters = _recording(outputs, record)
         plan = _Plan(instances, outputs, wiring, getters, n_steps)
         for name, inst in instances.items():
-            connected = {_split(c.dst)[1] for c in connections if _split(c.dst)[0] == name}
-            _initialize(inst, start_time, stop_time, logger, connected)
+            targets = map(split_reference, (c.dst for c in connections))
+            connected = {var for inst_name, var in targets if inst_name == name}
+            initialize(inst, start_time, stop_time, logger, connected)
         k, phase, index, status = plan.run(start_time, step)
         if phase >= 0:
             raise plan.refusal(k, phase, index, status, start_time + k * step, logger)
-        return CoSimulationResult(tuple(columns), plan.result(), _units(instances))
+        return CoSimulationResult(tuple(columns), plan.result(), units_of(instances))
     finally:
         for inst in instances.values():
-            _release(inst)
+            release(inst)
 
 
 #: Communication steps per call of the compiled loop (~0.1 s of the default system).
@@ -233,7 +129,7 @@ class _Plan:
     connected FMU, one doStep per FMU), each a direct call of the FMU's function.
     """
 
-    def __init__(self, instances: dict[str, _Instance], outputs: _OutputTable, wiring: dict,
+    def __init__(self, instances: dict[str, Instance], outputs: _OutputTable, wiring: dict,
                  getters: list[tuple[str, int]], n_steps: int) -> None:
         # outputs.add registered (instance, variable) -> position in inst.out_vrs
         recorded = [(name, instances[name].out_vrs[i]) for name, i in getters]
@@ -337,65 +233,15 @@ def _addresses(arrays: Sequence[np.ndarray]) -> np.ndarray:
     return np.array([a.ctypes.data for a in arrays], dtype=np.int64)
 
 
-#: FMU archives unpacked in this process: (path, mtime, size) -> directory. Unpacking
-#: (about 60 files per FMU) cost more than a 20,000-step run's stepping of drive and rate
-#: together (docs/performance.md); FMI resources are read-only, so every instance of
-#: an unchanged archive shares one directory, removed when the process ends.
-_UNPACKED: dict[tuple[str, int, int], tempfile.TemporaryDirectory] = {}
-
-
-def _unpacked(path: Path) -> str:
-    """The directory FMU `path` is unpacked in, unpacking it once per process and version."""
-    stat = path.stat()
-    key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
-    unpacked = _UNPACKED.get(key)
-    if unpacked is None:
-        for old in [k for k in _UNPACKED  # a rebuilt archive, or one gone (a build's)
-                    if k[0] == key[0] or not Path(k[0]).exists()]:
-            _UNPACKED.pop(old).cleanup()
-        unpacked = tempfile.TemporaryDirectory(prefix=f"gyro_fmu_{path.stem}_")
-        extract(str(path), unzipdir=unpacked.name)
-        _UNPACKED[key] = unpacked
-    return unpacked.name
-
-
-def _instantiate(comp: Component, callbacks: fmi2CallbackFunctions) -> _Instance:
-    path = Path(comp.fmu)
-    if not path.exists():
-        raise CoSimulationError(
-            f"FMU {path} of instance {comp.name!r} not found: build it with `gyro-fmu build`"
-        )
-    md = read_model_description(str(path))
-    if md.fmiVersion != "2.0" or md.coSimulation is None:
-        raise CoSimulationError(f"{path} is not an FMI 2.0 co-simulation FMU")
-    unzip_dir = _unpacked(path)
-    slave = FMU2Slave(
-        guid=md.guid,
-        unzipDirectory=unzip_dir,
-        modelIdentifier=md.coSimulation.modelIdentifier,
-        instanceName=comp.name,
-    )
-    try:
-        slave.instantiate(callbacks=callbacks, loggingOn=True)
-    finally:
-        # pythonfmu puts the FMU's resources first on the host's sys.path for good: later
-        # imports, and subprocesses that inherit sys.path (Dask, multiprocessing), would
-        # take modules from inside the FMU. What it imported stays in sys.modules.
-        sys.path[:] = [p for p in sys.path
-                       if not (isinstance(p, str) and p.startswith(unzip_dir))]
-    variables = {v.name: v for v in md.modelVariables}
-    return _Instance(comp, md, unzip_dir, slave, variables)
-
-
 class _OutputTable:
     """Which outputs each instance must deliver per step (one getReal each)."""
 
-    def __init__(self, instances: dict[str, _Instance]) -> None:
+    def __init__(self, instances: dict[str, Instance]) -> None:
         self.instances = instances
         self._index: dict[tuple[str, str], int] = {}
 
     def instance(self, ref: str) -> tuple[str, str]:
-        name, var = _split(ref)
+        name, var = split_reference(ref)
         if name not in self.instances:
             raise CoSimulationError(f"{ref!r}: no instance {name!r}; have {sorted(self.instances)}")
         return name, var
@@ -405,7 +251,7 @@ class _OutputTable:
         name, var = self.instance(ref)
         inst = self.instances[name]
         if (name, var) not in self._index:
-            v = _variable(inst, var, ("output",), ref)
+            v = variable(inst, var, ("output",), ref)
             self._index[(name, var)] = len(inst.out_vrs)
             inst.out_vrs.append(v.valueReference)
         return name, self._index[(name, var)]
@@ -421,7 +267,7 @@ def _wire(outputs: _OutputTable, connections: Sequence[Connection]) -> dict:
         if conn.dst in seen:
             raise CoSimulationError(f"input {conn.dst!r} is connected twice")
         seen.add(conn.dst)
-        v = _variable(outputs.instances[dst_name], dst_var, ("input",), conn.dst)
+        v = variable(outputs.instances[dst_name], dst_var, ("input",), conn.dst)
         in_vrs, sources = wiring.setdefault(dst_name, ([], []))
         in_vrs.append(v.valueReference)
         sources.append(source)
@@ -433,73 +279,3 @@ def _recording(outputs: _OutputTable, record: Sequence[str] | None):
         record = [f"{n}.{v.name}" for n, inst in outputs.instances.items()
                   for v in inst.variables.values() if v.causality == "output" and v.type == "Real"]
     return ["time", *record], [outputs.add(ref) for ref in record]
-
-
-def _units(instances: dict[str, _Instance]) -> dict[str, str]:
-    return {f"{n}.{v.name}": v.unit or "" for n, inst in instances.items()
-            for v in inst.variables.values()}
-
-
-def _initialize(inst: _Instance, start_time: float, stop_time: float, logger: LogCollector,
-                connected: set[str]) -> None:
-    """Set up the experiment, set parameters, initialize, and give unconnected inputs
-    their values. connected: names of the inputs that connections drive.
-
-    Parameters are set before fmi2EnterInitializationMode (initial="exact" allows it);
-    inputs only from then on, where FMI 2.0 allows setting them."""
-    slave, name = inst.slave, inst.component.name
-    parameters = [(var, value, "parameter") for var, value in inst.component.parameters.items()]
-    inputs = [(var, value, "input") for var, value in inst.component.inputs.items()]
-    try:
-        for var, value, causality in parameters + inputs:  # check all before any FMI call
-            _start_variable(inst, var, value, causality, connected)
-        slave.setupExperiment(startTime=start_time, stopTime=stop_time)
-        for var, value, _ in parameters:
-            _set_value(slave, inst.variables[var], value)
-        slave.enterInitializationMode()
-        for var, value, _ in inputs:
-            _set_value(slave, inst.variables[var], value)
-        slave.exitInitializationMode()
-    except FMICallException as exc:
-        raise CoSimulationError(
-            f"{name}: initialization failed ({exc}); it said:\n{logger.recent(name)}"
-        ) from None
-
-
-def _start_variable(inst: _Instance, var: str, value: object, causality: str,
-                    connected: set[str]):
-    """The variable a start value is given for, or a CoSimulationError saying why not."""
-    name = inst.component.name
-    v = inst.variables.get(var)
-    if v is None or v.causality != causality:
-        have = sorted(k for k, x in inst.variables.items() if x.causality == causality)
-        raise CoSimulationError(
-            f"{name}: {inst.component.fmu.name} has no {causality} {var!r}; "
-            f"its {causality}s are {have}"
-        )
-    if var in connected:
-        raise CoSimulationError(
-            f"{name}.{var} is driven by a connection and also given the value "
-            f"{value!r}: drop one of the two"
-        )
-    return v
-
-
-def _set_value(slave: FMU2Slave, v, value: float | int | bool | str) -> None:
-    if v.type == "Real":
-        slave.setReal([v.valueReference], [float(value)])
-    elif v.type in ("Integer", "Enumeration"):
-        slave.setInteger([v.valueReference], [int(value)])
-    elif v.type == "Boolean":
-        slave.setBoolean([v.valueReference], [bool(value)])
-    else:
-        slave.setString([v.valueReference], [str(value)])
-
-
-def _release(inst: _Instance) -> None:
-    try:
-        inst.slave.terminate()
-        inst.slave.freeInstance()
-    except Exception:
-        pass
-

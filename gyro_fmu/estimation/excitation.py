@@ -15,8 +15,8 @@ two-tone drive are a1 * (those of tone 1 alone) + a2 * (tone 2 alone): each
 frequency of the grid is simulated once and every pair/split is a cheap
 combination (an 8 x 8 Fisher matrix from precomputed Gram blocks).
 
-Noise conventions: ``noise_kind="relative"`` (default, as
-ObservabilityReport.one_sigma; docs/observability.md): white noise of std = noise x that channel's own
+Noise conventions (docs/observability.md): ``noise_kind="relative"`` (default, as
+ObservabilityReport.one_sigma): white noise of std = noise x that channel's own
 peak over the window, per channel; then the total force does not matter, only
 the split. ``noise_kind="absolute"``: std = noise in m (or m/s for velocities)
 for both channels, fixed by the pick-off electronics; then more force is better

@@ -1,0 +1,204 @@
+"""FMU instances for the master: unpack, instantiate, initialize, log, release (fmpy)."""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+from collections.abc import Iterable
+from ctypes import c_char_p, c_void_p
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import (  # type: ignore[attr-defined]
+    FMU2Slave,
+    calloc,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+    free,
+)
+
+from .system import Component, CoSimulationError
+
+
+class LogCollector:
+    """Keeps every FMU log message, so an error can quote what the FMU said."""
+
+    def __init__(self) -> None:
+        #: (instance, status, category, message) of every message, in order
+        self.messages: list[tuple[str, int, str, str]] = []
+
+    def __call__(self, env: c_void_p, instance: c_char_p, status: int, category: c_char_p,
+                 message: c_char_p) -> None:
+        def text(b: bytes | None) -> str:
+            return (b or b"").decode("utf-8", "replace")
+
+        self.messages.append((text(instance), int(status), text(category), text(message)))
+
+    def recent(self, instance: str, count: int = 5) -> str:
+        lines = [m for name, status, _, m in self.messages if name == instance and status > 0]
+        return "\n".join(lines[-count:]) or "(the FMU logged nothing)"
+
+
+def fmi2_callbacks(logger: LogCollector) -> fmi2CallbackFunctions:
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+    callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    return callbacks
+
+
+@dataclass
+class Instance:
+    component: Component
+    description: object
+    unzip_dir: str
+    slave: FMU2Slave
+    variables: dict  # name -> ScalarVariable
+    out_vrs: list[int] = field(default_factory=list)
+    in_vrs: list[int] = field(default_factory=list)
+
+
+def split_reference(ref: str) -> tuple[str, str]:
+    name, _, var = ref.partition(".")
+    if not var:
+        raise CoSimulationError(f"{ref!r} must read 'instance.variable'")
+    return name, var
+
+
+def variable(inst: Instance, var: str, causality: Iterable[str], ref: str):
+    v = inst.variables.get(var)
+    if v is None:
+        raise CoSimulationError(
+            f"{ref!r}: {inst.component.fmu.name} has no variable {var!r}; "
+            f"it has {sorted(inst.variables)}"
+        )
+    if v.causality not in causality:
+        raise CoSimulationError(
+            f"{ref!r}: variable {var!r} is a {v.causality}, expected {'/'.join(causality)}"
+        )
+    if v.type != "Real":
+        raise CoSimulationError(f"{ref!r}: only Real connections are supported, not {v.type}")
+    return v
+
+
+#: FMU archives unpacked in this process: (path, mtime, size) -> directory. Unpacking
+#: (about 60 files per FMU) cost more than a 20,000-step run's stepping of drive and rate
+#: together (docs/performance.md); FMI resources are read-only, so every instance of
+#: an unchanged archive shares one directory, removed when the process ends.
+_UNPACKED: dict[tuple[str, int, int], tempfile.TemporaryDirectory] = {}
+
+
+def unpacked(path: Path) -> str:
+    """The directory FMU `path` is unpacked in, unpacking it once per process and version."""
+    stat = path.stat()
+    key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
+    folder = _UNPACKED.get(key)
+    if folder is None:
+        for old in [k for k in _UNPACKED  # a rebuilt archive, or one gone (a build's)
+                    if k[0] == key[0] or not Path(k[0]).exists()]:
+            _UNPACKED.pop(old).cleanup()
+        folder = tempfile.TemporaryDirectory(prefix=f"gyro_fmu_{path.stem}_")
+        extract(str(path), unzipdir=folder.name)
+        _UNPACKED[key] = folder
+    return folder.name
+
+
+def instantiate(comp: Component, callbacks: fmi2CallbackFunctions) -> Instance:
+    path = Path(comp.fmu)
+    if not path.exists():
+        raise CoSimulationError(
+            f"FMU {path} of instance {comp.name!r} not found: build it with `gyro-fmu build`"
+        )
+    md = read_model_description(str(path))
+    if md.fmiVersion != "2.0" or md.coSimulation is None:
+        raise CoSimulationError(f"{path} is not an FMI 2.0 co-simulation FMU")
+    unzip_dir = unpacked(path)
+    slave = FMU2Slave(
+        guid=md.guid,
+        unzipDirectory=unzip_dir,
+        modelIdentifier=md.coSimulation.modelIdentifier,
+        instanceName=comp.name,
+    )
+    try:
+        slave.instantiate(callbacks=callbacks, loggingOn=True)
+    finally:
+        # pythonfmu puts the FMU's resources first on the host's sys.path for good: later
+        # imports, and subprocesses that inherit sys.path (Dask, multiprocessing), would
+        # take modules from inside the FMU. What it imported stays in sys.modules.
+        sys.path[:] = [p for p in sys.path
+                       if not (isinstance(p, str) and p.startswith(unzip_dir))]
+    variables = {v.name: v for v in md.modelVariables}
+    return Instance(comp, md, unzip_dir, slave, variables)
+
+
+def units_of(instances: dict[str, Instance]) -> dict[str, str]:
+    return {f"{n}.{v.name}": v.unit or "" for n, inst in instances.items()
+            for v in inst.variables.values()}
+
+
+def initialize(inst: Instance, start_time: float, stop_time: float, logger: LogCollector,
+                connected: set[str]) -> None:
+    """Set up the experiment, set parameters, initialize, and give unconnected inputs
+    their values. connected: names of the inputs that connections drive.
+
+    Parameters are set before fmi2EnterInitializationMode (initial="exact" allows it);
+    inputs only from then on, where FMI 2.0 allows setting them."""
+    slave, name = inst.slave, inst.component.name
+    parameters = [(var, value, "parameter") for var, value in inst.component.parameters.items()]
+    inputs = [(var, value, "input") for var, value in inst.component.inputs.items()]
+    try:
+        for var, value, causality in parameters + inputs:  # check all before any FMI call
+            _start_variable(inst, var, value, causality, connected)
+        slave.setupExperiment(startTime=start_time, stopTime=stop_time)
+        for var, value, _ in parameters:
+            _set_value(slave, inst.variables[var], value)
+        slave.enterInitializationMode()
+        for var, value, _ in inputs:
+            _set_value(slave, inst.variables[var], value)
+        slave.exitInitializationMode()
+    except FMICallException as exc:
+        raise CoSimulationError(
+            f"{name}: initialization failed ({exc}); it said:\n{logger.recent(name)}"
+        ) from None
+
+
+def _start_variable(inst: Instance, var: str, value: object, causality: str,
+                    connected: set[str]):
+    """The variable a start value is given for, or a CoSimulationError saying why not."""
+    name = inst.component.name
+    v = inst.variables.get(var)
+    if v is None or v.causality != causality:
+        have = sorted(k for k, x in inst.variables.items() if x.causality == causality)
+        raise CoSimulationError(
+            f"{name}: {inst.component.fmu.name} has no {causality} {var!r}; "
+            f"its {causality}s are {have}"
+        )
+    if var in connected:
+        raise CoSimulationError(
+            f"{name}.{var} is driven by a connection and also given the value "
+            f"{value!r}: drop one of the two"
+        )
+    return v
+
+
+def _set_value(slave: FMU2Slave, v, value: float | int | bool | str) -> None:
+    if v.type == "Real":
+        slave.setReal([v.valueReference], [float(value)])
+    elif v.type in ("Integer", "Enumeration"):
+        slave.setInteger([v.valueReference], [int(value)])
+    elif v.type == "Boolean":
+        slave.setBoolean([v.valueReference], [bool(value)])
+    else:
+        slave.setString([v.valueReference], [str(value)])
+
+
+def release(inst: Instance) -> None:
+    try:
+        inst.slave.terminate()
+        inst.slave.freeInstance()
+    except Exception:
+        pass
