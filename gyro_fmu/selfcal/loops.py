@@ -35,7 +35,53 @@ from .resonator import non_finite_fields
 #: Outputs of one loops step, in order.
 OUTPUTS = ("Vx", "Vy", "theta", "omega", "amplitude", "phase_error", "gain",
            "rate", "quad")
-N_STATE = 26
+N_STATE = 26  #: slots 20-25 are unused
+
+#: Slots of the settings array `par` (LoopSettings.as_array), by name; numba reads
+#: module-level integers as compile-time constants, so named slots cost nothing.
+P_MODE = 0
+P_W_NOMINAL = 1
+P_AMPLITUDE_SET = 2
+P_DEMOD_CUTOFF = 3
+P_REBALANCE_CUTOFF = 4
+P_PLL_KP = 5
+P_PLL_KI = 6
+P_AGC_KP = 7
+P_AGC_KI = 8
+P_REBALANCE_GAIN = 9
+P_REBALANCE_WI = 10
+P_DRIVE_LIMIT = 11
+P_OSC_PHASE = 12
+P_SIDEBAND_INDEX = 13
+P_SIDEBAND_SPACING = 14
+P_SIDEBAND_FIRST = 15
+P_SIDEBAND_COUNT = 16
+P_SIDEBAND_START = 17
+P_FF_XX = 18
+P_FF_XY = 19
+P_FF_YX = 20
+P_FF_YY = 21
+P_EXCITATION_AMPLITUDE = 22
+P_EXCITATION_OFFSET_X = 23
+P_EXCITATION_OFFSET_Y = 24
+P_AGC_FEEDFORWARD = 27
+N_PAR = 28  #: slots 25 and 26 are unused
+
+#: Slots of the loop state `st`: NCO phase and frequency, PI integrators, the low-pass
+#: sections (3 complex for the PLL/AGC demodulator, 2 for the rebalance), the drive
+#: voltages of this hold and the previous one (for the feed-forward removal).
+S_THETA = 0
+S_OMEGA = 1
+S_PLL_INTEGRAL = 2
+S_AGC_INTEGRAL = 3
+S_AGC_LOWPASS = 4
+S_REBALANCE_LOWPASS = 10
+S_REBALANCE_INTEGRAL_RE = 14
+S_REBALANCE_INTEGRAL_IM = 15
+S_VX_HELD = 16
+S_VY_HELD = 17
+S_VX_PREVIOUS = 18
+S_VY_PREVIOUS = 19
 
 
 class LoopsError(ValueError):
@@ -95,16 +141,32 @@ class LoopSettings:
         c = self.plant_gain
         zeta, wn = 0.7, w * self.agc_bandwidth
         tau = self.q_nominal / (math.pi * self.f_nominal)
-        return np.array([
-            self.mode, w * self.f_nominal, self.amplitude, self.demod_cutoff,
-            self.rebalance_cutoff, w * self.pll_bandwidth, (w * self.pll_bandwidth) ** 2 / 4,
-            2 * zeta * wn / c, wn**2 / c, w * self.rebalance_bandwidth / c,
-            w * self.rebalance_bandwidth / 5, self.drive_limit, self.osc_phase,
-            self.sideband_index, self.sideband_spacing, self.sideband_first,
-            self.sideband_count, self.sideband_start, self.ff_xx, self.ff_xy, self.ff_yx,
-            self.ff_yy, self.excitation_amplitude, self.excitation_offset_x,
-            self.excitation_offset_y, 0.0, 0.0, self.amplitude / (c * tau),
-        ])
+        par = np.zeros(N_PAR)
+        par[P_MODE] = self.mode
+        par[P_W_NOMINAL] = w * self.f_nominal
+        par[P_AMPLITUDE_SET] = self.amplitude
+        par[P_DEMOD_CUTOFF] = self.demod_cutoff
+        par[P_REBALANCE_CUTOFF] = self.rebalance_cutoff
+        par[P_PLL_KP] = w * self.pll_bandwidth
+        par[P_PLL_KI] = (w * self.pll_bandwidth) ** 2 / 4
+        par[P_AGC_KP] = 2 * zeta * wn / c
+        par[P_AGC_KI] = wn**2 / c
+        par[P_REBALANCE_GAIN] = w * self.rebalance_bandwidth / c
+        par[P_REBALANCE_WI] = w * self.rebalance_bandwidth / 5
+        par[P_DRIVE_LIMIT] = self.drive_limit
+        par[P_OSC_PHASE] = self.osc_phase
+        par[P_SIDEBAND_INDEX] = self.sideband_index
+        par[P_SIDEBAND_SPACING] = self.sideband_spacing
+        par[P_SIDEBAND_FIRST] = self.sideband_first
+        par[P_SIDEBAND_COUNT] = self.sideband_count
+        par[P_SIDEBAND_START] = self.sideband_start
+        par[P_FF_XX], par[P_FF_XY] = self.ff_xx, self.ff_xy
+        par[P_FF_YX], par[P_FF_YY] = self.ff_yx, self.ff_yy
+        par[P_EXCITATION_AMPLITUDE] = self.excitation_amplitude
+        par[P_EXCITATION_OFFSET_X] = self.excitation_offset_x
+        par[P_EXCITATION_OFFSET_Y] = self.excitation_offset_y
+        par[P_AGC_FEEDFORWARD] = self.amplitude / (c * tau)
+        return par
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -118,7 +180,7 @@ def sideband_phases(count: int) -> np.ndarray:
 
 def initial_state(settings: LoopSettings) -> np.ndarray:
     st = np.zeros(N_STATE)
-    st[1] = 2 * math.pi * settings.f_nominal
+    st[S_OMEGA] = 2 * math.pi * settings.f_nominal
     return st
 
 
@@ -141,69 +203,70 @@ def _lowpass(st, first, sections, alpha, re, im):  # pragma: no cover
 @njit(cache=True)
 def loops_step(px, py, t, h, par, st, out):  # pragma: no cover
     """Consume the pick-offs sampled at t; write the outputs for the hold from t + h."""
-    mode = int(par[0])
-    w_nom, a_set = par[1], par[2]
+    mode = int(par[P_MODE])
+    w_nom, a_set = par[P_W_NOMINAL], par[P_AMPLITUDE_SET]
     two_pi = 2.0 * math.pi
     # feed-forward removal: the pick-off at t holds E V of the hold that ended at t
-    pcx = px - (par[18] * st[18] + par[19] * st[19])
-    pcy = py - (par[20] * st[18] + par[21] * st[19])
+    pcx = px - (par[P_FF_XX] * st[S_VX_PREVIOUS] + par[P_FF_XY] * st[S_VY_PREVIOUS])
+    pcy = py - (par[P_FF_YX] * st[S_VX_PREVIOUS] + par[P_FF_YY] * st[S_VY_PREVIOUS])
     t_next = t + h
     if mode == 0:
         f0 = w_nom / two_pi
-        a = par[22]
-        vx = a * (math.cos(two_pi * (f0 - par[23]) * t_next)
-                  + math.cos(two_pi * (f0 + par[23]) * t_next))
-        vy = a * (math.cos(two_pi * (f0 - par[24]) * t_next)
-                  + math.cos(two_pi * (f0 + par[24]) * t_next))
-        st[0] = _wrap(st[0] + w_nom * h)
-        st[1] = w_nom
+        a = par[P_EXCITATION_AMPLITUDE]
+        vx = a * (math.cos(two_pi * (f0 - par[P_EXCITATION_OFFSET_X]) * t_next)
+                  + math.cos(two_pi * (f0 + par[P_EXCITATION_OFFSET_X]) * t_next))
+        vy = a * (math.cos(two_pi * (f0 - par[P_EXCITATION_OFFSET_Y]) * t_next)
+                  + math.cos(two_pi * (f0 + par[P_EXCITATION_OFFSET_Y]) * t_next))
+        st[S_THETA] = _wrap(st[S_THETA] + w_nom * h)
+        st[S_OMEGA] = w_nom
         g = 0.0
         rate = quad = amp = perr = 0.0
     else:
         p1, p2 = (pcx, pcy) if mode == 1 else (pcy, pcx)
-        th = st[0]
+        th = st[S_THETA]
         c, s = math.cos(th), math.sin(th)
-        alpha1 = 1.0 - math.exp(-two_pi * par[3] * h)
-        a_re, a_im = _lowpass(st, 4, 3, alpha1, 2.0 * p1 * c, -2.0 * p1 * s)
+        alpha1 = 1.0 - math.exp(-two_pi * par[P_DEMOD_CUTOFF] * h)
+        a_re, a_im = _lowpass(st, S_AGC_LOWPASS, 3, alpha1, 2.0 * p1 * c, -2.0 * p1 * s)
         amp = math.hypot(a_re, a_im)
         perr = math.atan2(a_im, a_re)
         # PLL: PI on the phase error drives the NCO frequency
-        st[2] += par[6] * perr * h
-        omega = w_nom + par[5] * perr + st[2]
+        st[S_PLL_INTEGRAL] += par[P_PLL_KI] * perr * h
+        omega = w_nom + par[P_PLL_KP] * perr + st[S_PLL_INTEGRAL]
         # amplitude control on the sideband-modulated position signal
         m = 0.0
-        if par[13] > 0.0 and t >= par[17]:
-            n = int(par[16])
+        if par[P_SIDEBAND_INDEX] > 0.0 and t >= par[P_SIDEBAND_START]:
+            n = int(par[P_SIDEBAND_COUNT])
             for j in range(n):
-                k = par[15] + j
+                k = par[P_SIDEBAND_FIRST] + j
                 psi = -math.pi * (j + 1) * j / n
-                m += par[13] * math.sin(two_pi * k * par[14] * t + psi)
+                m += par[P_SIDEBAND_INDEX] * math.sin(
+                    two_pi * k * par[P_SIDEBAND_SPACING] * t + psi)
         e = a_set - amp * (1.0 + m)
-        g = par[27] + par[7] * e + st[3]
-        if 0.0 < g < par[11]:
-            st[3] += par[8] * e * h
-        g = min(max(g, 0.0), par[11])
+        g = par[P_AGC_FEEDFORWARD] + par[P_AGC_KP] * e + st[S_AGC_INTEGRAL]
+        if 0.0 < g < par[P_DRIVE_LIMIT]:
+            st[S_AGC_INTEGRAL] += par[P_AGC_KI] * e * h
+        g = min(max(g, 0.0), par[P_DRIVE_LIMIT])
         # force rebalance: u = -i K (b + w_i int b)
-        alpha2 = 1.0 - math.exp(-two_pi * par[4] * h)
-        b_re, b_im = _lowpass(st, 10, 2, alpha2, 2.0 * p2 * c, -2.0 * p2 * s)
-        st[14] += b_re * h
-        st[15] += b_im * h
-        v_re = b_re + par[10] * st[14]
-        v_im = b_im + par[10] * st[15]
-        u_re, u_im = par[9] * v_im, -par[9] * v_re
+        alpha2 = 1.0 - math.exp(-two_pi * par[P_REBALANCE_CUTOFF] * h)
+        b_re, b_im = _lowpass(st, S_REBALANCE_LOWPASS, 2, alpha2, 2.0 * p2 * c, -2.0 * p2 * s)
+        st[S_REBALANCE_INTEGRAL_RE] += b_re * h
+        st[S_REBALANCE_INTEGRAL_IM] += b_im * h
+        v_re = b_re + par[P_REBALANCE_WI] * st[S_REBALANCE_INTEGRAL_RE]
+        v_im = b_im + par[P_REBALANCE_WI] * st[S_REBALANCE_INTEGRAL_IM]
+        u_re, u_im = par[P_REBALANCE_GAIN] * v_im, -par[P_REBALANCE_GAIN] * v_re
         # NCO advance; outputs at the middle of the next hold
         th_next = _wrap(th + omega * h)
-        st[0], st[1] = th_next, omega
+        st[S_THETA], st[S_OMEGA] = th_next, omega
         psi_mid = th_next + 0.5 * omega * h
-        v1 = -g * math.sin(psi_mid + par[12])
+        v1 = -g * math.sin(psi_mid + par[P_OSC_PHASE])
         v2 = u_re * math.cos(psi_mid) - u_im * math.sin(psi_mid)
         vx, vy = (v1, v2) if mode == 1 else (v2, v1)
         rate = u_im if mode == 1 else -u_im
         quad = u_re
-    st[18], st[19] = st[16], st[17]
-    st[16], st[17] = vx, vy
+    st[S_VX_PREVIOUS], st[S_VY_PREVIOUS] = st[S_VX_HELD], st[S_VY_HELD]
+    st[S_VX_HELD], st[S_VY_HELD] = vx, vy
     out[0], out[1] = vx, vy
-    out[2], out[3], out[4], out[5] = st[0], st[1], amp, perr
+    out[2], out[3], out[4], out[5] = st[S_THETA], st[S_OMEGA], amp, perr
     out[6], out[7], out[8] = g, rate, quad
 
 
@@ -215,7 +278,7 @@ class LoopsModel:
         self.par = settings.as_array()
         self.st = initial_state(settings)
         self.out = np.zeros(len(OUTPUTS))
-        self.out[2], self.out[3] = self.st[0], self.st[1]
+        self.out[2], self.out[3] = self.st[S_THETA], self.st[S_OMEGA]
 
     def step(self, px: float, py: float, t: float, h: float) -> np.ndarray:
         loops_step(px, py, t, h, self.par, self.st, self.out)
