@@ -142,8 +142,10 @@ class GyroSlave(Fmi2Slave):
                 self.log(f"{self.modelName}: {mismatch}", Fmi2Status.warning)
             from . import pythonfmu_exit
 
-            binary = Path(self.resources).parent / "binaries" / "linux64" / f"{self.modelName}.so"
-            pythonfmu_exit.install(binary)
+            platform = Path(self.resources).parent / "binaries" / "linux64"
+            binary = platform / f"{self.modelName}_pythonfmu.so"  # behind our loader
+            pythonfmu_exit.install(binary if binary.is_file() else
+                                   platform / f"{self.modelName}.so")
 
     @staticmethod
     def _pythonfmu_variable(var: Var) -> Real | Integer:

@@ -1,0 +1,150 @@
+"""Put a small C loader in front of pythonfmu's binary, so an FMU finds its own Python.
+
+pythonfmu's binary starts an embedded interpreter but does not link libpython: a
+non-Python host (a C program, OMSimulator, the `ecos` CLI) would need LD_PRELOAD,
+PYTHONHOME and PYTHONPATH set by hand, and fails with `undefined symbol` or a segfault
+without them. `install_loader` compiles `python_loader.c` with the system C compiler and
+puts it in place of `binaries/linux64/<id>.so`; pythonfmu's binary stays in the FMU as
+`<id>_pythonfmu.so`, and `resources/python_env.txt` records the Python that built the
+FMU (libpython, home, the folders of numpy, scipy, numba). In a process that already
+runs Python (fmpy, libcosimpy, ecospy) the loader loads nothing and forwards every call;
+elsewhere it loads that Python first. Where it is gone, fmi2Instantiate logs what was
+looked for and how to fix it, and returns NULL. The user's PYTHONHOME and PYTHONPATH,
+and PYTHONFMU_LIBPYTHON, override the record. docs/fmi-notes.md has the measurements.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import site
+import subprocess
+import sys
+import sysconfig
+import tempfile
+import zipfile
+from importlib.util import find_spec
+from pathlib import Path
+from xml.etree import ElementTree
+
+LOADER_SOURCE = Path(__file__).resolve().parent / "python_loader.c"
+ENV_FILE = "resources/python_env.txt"
+#: Modules the shipped gyro_fmu imports that are not inside the FMU.
+MODULES = ("numpy", "scipy", "numba", "llvmlite")
+MARKER = b"@(#)pythonfmu-shim"
+
+
+class LoaderUnavailable(RuntimeError):
+    """The loader cannot be built here (no C compiler, no shared libpython)."""
+
+
+def real_binary_name(model_identifier: str) -> str:
+    return f"binaries/linux64/{model_identifier}_pythonfmu.so"
+
+
+def fmi2_headers() -> Path:
+    """fmpy's copy of the FMI 2.0 headers."""
+    spec = find_spec("fmpy")
+    folder = Path(spec.origin).parent / "c-code" if spec and spec.origin else None
+    if folder is None or not (folder / "fmi2Functions.h").is_file():
+        raise LoaderUnavailable("fmpy's FMI 2.0 headers (fmpy/c-code) are missing")
+    return folder
+
+
+def compile_loader(dest_dir: Path) -> Path:
+    """The loader compiled into dest_dir (references only GLIBC_2.2.5/2.3 symbols)."""
+    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+    if not cc:
+        raise LoaderUnavailable("no C compiler (cc, gcc or $CC)")
+    out = Path(dest_dir) / "python_loader.so"
+    base = [cc, "-std=c99", "-shared", "-fPIC", "-O2", "-fvisibility=hidden",
+            "-U_FORTIFY_SOURCE", "-fno-stack-protector", f"-I{fmi2_headers()}",
+            "-o", str(out), str(LOADER_SOURCE)]
+    errors = ""
+    # libdl.so.2 as NEEDED so that dlopen resolves on glibc < 2.34 too
+    for libs in (["-Wl,--no-as-needed", "-l:libdl.so.2"], ["-ldl"]):
+        proc = subprocess.run(base + libs, capture_output=True, text=True)
+        if proc.returncode == 0:
+            return out
+        errors = proc.stderr
+    raise LoaderUnavailable(f"compiling {LOADER_SOURCE.name} failed:\n{errors}")
+
+
+def libpython() -> Path:
+    """This interpreter's shared libpython."""
+    cfg = sysconfig.get_config_var
+    for name in (cfg("INSTSONAME"), cfg("LDLIBRARY")):
+        for folder in (cfg("LIBDIR"), Path(sys.base_prefix) / "lib"):
+            path = Path(folder or "", name or "")
+            if name and folder and ".so" in name and path.is_file():
+                return path.resolve()
+    raise LoaderUnavailable("no shared libpython (a Python built without --enable-shared)")
+
+
+def python_paths() -> list[str]:
+    """Folders the embedded interpreter needs: site-packages and the module folders."""
+    paths = [p for p in site.getsitepackages() if Path(p).is_dir()]
+    for name in MODULES:
+        spec = find_spec(name)
+        if spec and spec.origin:
+            origin = Path(spec.origin).resolve()
+            paths.append(str(origin.parent.parent if origin.name == "__init__.py"
+                             else origin.parent))
+    return list(dict.fromkeys(str(Path(p).resolve()) for p in paths))
+
+
+def python_env_text() -> str:
+    """resources/python_env.txt for this interpreter: key=value lines."""
+    home = sys.base_prefix
+    lines = ["# The Python this FMU was built with (gyro_fmu/fmu/loader.py).",
+             "# Overrides: PYTHONFMU_LIBPYTHON, PYTHONHOME (kept if set), PYTHONPATH (prepended).",
+             f"python_version={sys.version_info.major}.{sys.version_info.minor}",
+             f"python_executable={sys.executable}",
+             f"libpython={libpython()}",
+             f"pythonhome={home}"]
+    lines += [f"pythonpath={p}" for p in python_paths()]
+    return "\n".join(lines) + "\n"
+
+
+def recorded_python(fmu: Path) -> dict[str, list[str]] | None:
+    """What an FMU's loader will use (key -> values), or None for an FMU without one."""
+    try:
+        with zipfile.ZipFile(fmu) as z:
+            text = z.read(ENV_FILE).decode("utf-8")
+    except (KeyError, OSError, zipfile.BadZipFile):
+        return None
+    out: dict[str, list[str]] = {}
+    for line in text.splitlines():
+        if line and not line.startswith("#") and "=" in line:
+            key, _, value = line.partition("=")
+            out.setdefault(key, []).append(value)
+    return out
+
+
+def install_loader(fmu: Path) -> None:
+    """Put the loader in front of pythonfmu's binary in `fmu` (in place, atomically)."""
+    fmu = Path(fmu)
+    text = python_env_text()
+    with tempfile.TemporaryDirectory() as tmp, zipfile.ZipFile(fmu) as z:
+        loader = compile_loader(Path(tmp)).read_bytes()
+        ident = ElementTree.fromstring(z.read("modelDescription.xml")).find(
+            "CoSimulation").get("modelIdentifier")
+        front, real = f"binaries/linux64/{ident}.so", real_binary_name(ident)
+        binary = z.read(front)
+        if MARKER in binary:  # already has a loader: keep the real binary it has
+            binary = z.read(real)
+        stamp = z.getinfo(front).date_time
+        fd, name = tempfile.mkstemp(suffix=".fmu", dir=fmu.parent)  # same file system
+        os.close(fd)
+        rewritten = Path(name)
+        with zipfile.ZipFile(rewritten, "w", zipfile.ZIP_DEFLATED) as w:
+            for info in z.infolist():
+                if info.filename not in (front, real, ENV_FILE):
+                    w.writestr(info, z.read(info.filename))
+            for name, data, mode in ((real, binary, 0o755), (front, loader, 0o755),
+                                     (ENV_FILE, text.encode(), 0o644)):
+                info = zipfile.ZipInfo(name, date_time=stamp)
+                info.external_attr = (0o100000 | mode) << 16
+                info.compress_type = zipfile.ZIP_DEFLATED
+                w.writestr(info, data)
+        os.replace(rewritten, fmu)
