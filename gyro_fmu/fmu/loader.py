@@ -34,7 +34,7 @@ MODULES = ("numpy", "scipy", "numba", "llvmlite")
 MARKER = b"@(#)pythonfmu-shim"
 
 
-class LoaderUnavailable(RuntimeError):
+class LoaderUnavailableError(RuntimeError):
     """The loader cannot be built here (no C compiler, no shared libpython)."""
 
 
@@ -47,7 +47,7 @@ def fmi2_headers() -> Path:
     spec = find_spec("fmpy")
     folder = Path(spec.origin).parent / "c-code" if spec and spec.origin else None
     if folder is None or not (folder / "fmi2Functions.h").is_file():
-        raise LoaderUnavailable("fmpy's FMI 2.0 headers (fmpy/c-code) are missing")
+        raise LoaderUnavailableError("fmpy's FMI 2.0 headers (fmpy/c-code) are missing")
     return folder
 
 
@@ -55,7 +55,7 @@ def compile_loader(dest_dir: Path) -> Path:
     """The loader compiled into dest_dir (references only GLIBC_2.2.5/2.3 symbols)."""
     cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
     if not cc:
-        raise LoaderUnavailable("no C compiler (cc, gcc or $CC)")
+        raise LoaderUnavailableError("no C compiler (cc, gcc or $CC)")
     out = Path(dest_dir) / "python_loader.so"
     base = [cc, "-std=c99", "-shared", "-fPIC", "-O2", "-fvisibility=hidden",
             "-U_FORTIFY_SOURCE", "-fno-stack-protector", f"-I{fmi2_headers()}",
@@ -67,7 +67,7 @@ def compile_loader(dest_dir: Path) -> Path:
         if proc.returncode == 0:
             return out
         errors = proc.stderr
-    raise LoaderUnavailable(f"compiling {LOADER_SOURCE.name} failed:\n{errors}")
+    raise LoaderUnavailableError(f"compiling {LOADER_SOURCE.name} failed:\n{errors}")
 
 
 def libpython() -> Path:
@@ -78,7 +78,7 @@ def libpython() -> Path:
             path = Path(folder or "", name or "")
             if name and folder and ".so" in name and path.is_file():
                 return path.resolve()
-    raise LoaderUnavailable("no shared libpython (a Python built without --enable-shared)")
+    raise LoaderUnavailableError("no shared libpython (a Python built without --enable-shared)")
 
 
 def python_paths() -> list[str]:
