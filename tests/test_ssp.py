@@ -9,6 +9,7 @@ from xml.etree import ElementTree as ET
 
 import numpy as np
 import pytest
+from fmpy import read_model_description
 from fmpy.ssp.ssd import read_ssd
 from pythonfmu.builder import FmuBuilder
 
@@ -17,7 +18,10 @@ from gyro_fmu.model.rate import RateKind, RateProfile
 from gyro_fmu.system.run import run_fmus
 from gyro_fmu.system.scenario import CONNECTIONS, fmu_system, scenario
 from gyro_fmu.system.ssp import (
+    PARAMETER_SET,
+    SSD,
     SSPError,
+    SSV,
     relative_differences,
     run_ssp_libcosim,
     system_structure,
@@ -57,6 +61,31 @@ def test_the_package_holds_the_fmus_wiring_and_every_parameter(models_dir, tmp_p
                 assert int(text) == value
             else:
                 assert kind == "Real" and float(text) == value  # repr: exact round trip
+
+
+def test_all_bindings_form_one_parameter_set_with_units(models_dir, tmp_path):
+    """One set name for the whole system (Ecos applies only the set it is told to),
+    every Real value with its FMU variable's unit, defined in the set's ssv:Units."""
+    path = write_ssp(SCENARIO, models_dir, tmp_path / "GyroSystem.ssp")
+    with zipfile.ZipFile(path) as z:
+        root = ET.fromstring(z.read("SystemStructure.ssd"))
+    sets = list(root.iter(f"{{{SSV}}}ParameterSet"))
+    assert len(sets) == 4 and {s.get("name") for s in sets} == {PARAMETER_SET}
+    components = {c.name: c for c in fmu_system(SCENARIO, models_dir)[0]}
+    for element in root.iter(f"{{{SSD}}}Component"):
+        md = {v.name: v for v in read_model_description(
+            str(components[element.get("name")].fmu)).modelVariables}
+        pset = element.find(f".//{{{SSV}}}ParameterSet")
+        defined = {u.get("name") for u in pset.iterfind(
+            "{http://ssp-standard.org/SSP1/SystemStructureParameterValues}Units/"
+            "{http://ssp-standard.org/SSP1/SystemStructureCommon}Unit")}
+        for p in pset.iter(f"{{{SSV}}}Parameter"):
+            value = p[0]
+            if value.tag == f"{{{SSV}}}Real":
+                assert value.get("unit") == md[p.get("name")].unit, p.get("name")
+                assert value.get("unit") in defined
+            else:
+                assert value.get("unit") is None  # ssv:Integer has no unit in SSP 1.0
 
 
 def test_libcosim_runs_the_package_like_the_fmpy_master(models_dir, tmp_path):

@@ -151,7 +151,9 @@ def _finish_model_description(fmu: Path, models_dir: Path,
     """Put back what FMUCT 2.0 leaves out of the container's modelDescription.xml.
 
     - units: FMUCT copies names, descriptions and start values but drops every
-      `unit` and the UnitDefinitions; they are copied from the embedded FMUs.
+      `unit` and the UnitDefinitions (its EmbeddedFMUPort never reads `unit`); they
+      are copied from the embedded FMUs, also onto FMUCT's local link variables
+      ("twotonedrive.ux", ...), and time gets "s".
     - InitialUnknowns: FMUCT lists every output there, also outputs declared
       initial="exact", which `fmpy validate` rejects; only outputs whose initial
       is calculated or approx are kept (FMI 2.0, section 2.2.8).
@@ -169,6 +171,16 @@ def _finish_model_description(fmu: Path, models_dir: Path,
         for sv in md.iterfind("ModelVariables/ScalarVariable"):
             embedded[(instance, sv.get("name"))] = sv
     by_exposed = {exposed: embedded[key] for key, exposed in names.items()}
+    # FMUCT's local variables of the links are called "<fmu id>.<variable>", the id being
+    # the FMU file's lower-case stem (twotonedrive.ux); time is the independent variable.
+    stems = {Path(fmu_name).stem.lower(): instance for instance, fmu_name in INSTANCE_FMUS.items()}
+    for (instance, variable), sv in embedded.items():
+        stem = Path(INSTANCE_FMUS[instance]).stem.lower()
+        by_exposed.setdefault(f"{stem}.{variable}", sv)
+    assert len(stems) == len(INSTANCE_FMUS)
+    time_unit = ET.Element("ScalarVariable")
+    ET.SubElement(time_unit, "Real", unit="s")
+    by_exposed.setdefault("time", time_unit)
 
     with zipfile.ZipFile(fmu) as z:
         entries = [(info, z.read(info)) for info in z.infolist()]

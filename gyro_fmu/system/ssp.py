@@ -18,6 +18,17 @@ lists its inputs, outputs and bound parameters. And a fixed step is not part of
 the SSP standard, so the step is written as the OSP annotation
 `osp:FixedStepAlgorithm` in DefaultExperiment, where libcosim's parser looks
 (other tools ignore it). The file validates against the SSP 1.0 schemas.
+
+All bound values form one parameter set, `PARAMETER_SET` ("scenario"): every
+component's ParameterBinding holds an ssv:ParameterSet of that same name. SSP
+importers apply parameter sets by name: Ecos applies only the set named with
+`--parameterSet` / `init(parameter_set=...)`, to every instance that has one of
+that name, so with one name per component it applied a quarter of the scenario.
+libcosim applies each component's (first) set. A single system-level set with
+hierarchical names (drive.A1, ...) is what SSP also allows, but neither libcosim
+nor Ecos reads system-level bindings (measured: both ran on the FMUs' defaults).
+Every Real value carries the unit of its FMU variable (ssv:Real unit=), defined in
+the set's ssv:Units (from the FMU's UnitDefinitions), as SSP 1.0 requires.
 """
 
 from __future__ import annotations
@@ -56,6 +67,10 @@ _SSP_TYPES = {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer",
               "Boolean": "Boolean", "String": "String"}
 #: libcosim time unit: durations and time points are integer nanoseconds.
 _NS = 1_000_000_000
+#: Name of the one parameter set of the package (what Ecos' --parameterSet names).
+PARAMETER_SET = "scenario"
+#: SI exponents of an FMI BaseUnit / ssc:BaseUnit (the same attributes in both).
+_BASE_UNIT_ATTRIBUTES = ("kg", "m", "s", "A", "K", "mol", "cd", "rad", "factor", "offset")
 
 
 class SSPError(CoSimulationError):
@@ -85,22 +100,60 @@ def _connectors(parent: ET.Element, variables: Mapping[str, object],
         ET.SubElement(c, _q(SSC, _SSP_TYPES[v.type]))
 
 
+def _unit_definitions(fmu: Path) -> dict[str, dict[str, str]]:
+    """unit name -> its BaseUnit attributes (SI exponents, factor, offset), from the
+    FMU's UnitDefinitions (a unit without BaseUnit: {}, i.e. dimensionless)."""
+    with zipfile.ZipFile(fmu) as z:
+        md = ET.fromstring(z.read("modelDescription.xml"))
+    units = {}
+    for unit in md.iterfind("UnitDefinitions/Unit"):
+        base = unit.find("BaseUnit")
+        units[unit.get("name")] = {} if base is None else {
+            k: base.get(k) for k in _BASE_UNIT_ATTRIBUTES if base.get(k) is not None}
+    return units
+
+
 def _parameter_binding(parent: ET.Element, name: str, variables: Mapping[str, object],
-                       values: Mapping[str, object]) -> None:
+                       values: Mapping[str, object],
+                       units: Mapping[str, Mapping[str, str]]) -> None:
+    """The component's ParameterBinding: an inline ssv:ParameterSet called `name`.
+
+    A Real value carries its FMU variable's unit (ssv:Real unit=), and the set's
+    ssv:Units defines each unit used (SSP 1.0: a unit attribute must reference a
+    definition in the enclosing file). ssv:Integer has no unit in SSP 1.0.
+    """
     bindings = ET.SubElement(parent, _q(SSD, "ParameterBindings"))
     binding = ET.SubElement(bindings, _q(SSD, "ParameterBinding"))
     pvalues = ET.SubElement(binding, _q(SSD, "ParameterValues"))
     pset = ET.SubElement(pvalues, _q(SSV, "ParameterSet"), version="1.0", name=name)
     params = ET.SubElement(pset, _q(SSV, "Parameters"))
+    used: list[str] = []
     for pname, value in values.items():
         ssp_type = _SSP_TYPES[variables[pname].type]
         p = ET.SubElement(params, _q(SSV, "Parameter"), name=pname)
-        ET.SubElement(p, _q(SSV, ssp_type), value=_format(value, ssp_type))
+        attrs = {"value": _format(value, ssp_type)}
+        unit = getattr(variables[pname], "unit", None) if ssp_type == "Real" else None
+        if unit:
+            if unit not in units:
+                raise SSPError(f"{pname}: unit {unit!r} is not in the FMU's UnitDefinitions")
+            attrs["unit"] = unit
+            if unit not in used:
+                used.append(unit)
+        ET.SubElement(p, _q(SSV, ssp_type), attrs)
+    if used:
+        defs = ET.SubElement(pset, _q(SSV, "Units"))
+        for unit in used:
+            ET.SubElement(ET.SubElement(defs, _q(SSC, "Unit"), name=unit),
+                          _q(SSC, "BaseUnit"), dict(units[unit]))
 
 
 def system_structure(components: Iterable[Component], connections: Iterable[Connection],
-                     stop_time: float, step: float) -> tuple[ET.Element, dict[str, Path]]:
+                     stop_time: float, step: float, parameter_set: str = PARAMETER_SET
+                     ) -> tuple[ET.Element, dict[str, Path]]:
     """The SystemStructure.ssd tree and the FMU files it refers to (resources/NAME.fmu).
+
+    All bindings belong to the one parameter set `parameter_set` (each component's
+    ParameterBinding holds a set of that name; see the module docstring).
 
     Each component lists its inputs, outputs and bound parameters as connectors,
     with the types from its modelDescription (an Integer parameter such as the
@@ -126,7 +179,8 @@ def system_structure(components: Iterable[Component], connections: Iterable[Conn
         io = [n for n, v in variables.items() if v.causality in ("input", "output")]
         _connectors(element, variables, [*comp.parameters, *io])
         if comp.parameters:
-            _parameter_binding(element, comp.name, variables, comp.parameters)
+            _parameter_binding(element, parameter_set, variables, comp.parameters,
+                               _unit_definitions(fmu))
     conns = ET.SubElement(system, _q(SSD, "Connections"))
     for c in connections:
         src, _, src_var = c.src.partition(".")
@@ -144,12 +198,13 @@ def system_structure(components: Iterable[Component], connections: Iterable[Conn
 
 
 def write_ssp(sc: Scenario | None = None, models_dir: Path = MODELS_DIR,
-              dest: Path | None = None) -> Path:
+              dest: Path | None = None, parameter_set: str = PARAMETER_SET) -> Path:
     """Write the scenario's system as an SSP package; returns its path.
 
     Contents: SystemStructure.ssd (components drive, rate, plant, observer; the
     connections of `scenario.CONNECTIONS`; every parameter value `fmu_system`
-    sets, as inline ParameterBindings; DefaultExperiment 0..stop_time; the
+    sets, as inline ParameterBindings that form the one parameter set
+    `parameter_set`, each Real value with its unit; DefaultExperiment 0..stop_time; the
     communication step as an OSP annotation) and resources/*.fmu.
     Default: models_dir/GyroSystem.ssp for the default scenario.
     """
@@ -157,7 +212,8 @@ def write_ssp(sc: Scenario | None = None, models_dir: Path = MODELS_DIR,
     models_dir = Path(models_dir)
     dest = models_dir / f"{SYSTEM_NAME}.ssp" if dest is None else Path(dest)
     components, connections = fmu_system(sc, models_dir)
-    root, resources = system_structure(components, connections, sc.stop_time, sc.step)
+    root, resources = system_structure(components, connections, sc.stop_time, sc.step,
+                                       parameter_set)
     dest.parent.mkdir(parents=True, exist_ok=True)
     xml = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
     tmp = dest.with_name(dest.name + ".part")
