@@ -11,6 +11,8 @@ import pytest
 from gyro_fmu.doctor import environment as env
 from gyro_fmu.doctor import host
 from gyro_fmu.doctor import report as doc
+from gyro_fmu.fmu import build
+from gyro_fmu.fmu.build import load_slave
 from gyro_fmu.model.parameters import DEFAULT_PRESET, PRESETS
 from gyro_fmu.model.plant import GyroPlantModel
 
@@ -32,7 +34,7 @@ def test_c_host_reproduces_python_plant(report: doc.DoctorReport) -> None:
     check = report.check
     assert check is not None, report.format()
     assert check.reached_end, report.format()
-    inputs, names = host.CHECK_PLANS["GyroPlant"]
+    inputs, names = load_slave("GyroPlant").DOCTOR_CHECK
     model = GyroPlantModel(PRESETS[DEFAULT_PRESET])
     expected = []
     for _ in range(host.CHECK_STEPS):
@@ -69,6 +71,30 @@ def test_c_host_exits_cleanly(report: doc.DoctorReport) -> None:
     text = report.format()
     assert "export LD_PRELOAD=" in text and "export PYTHONHOME=" in text
     assert ("CRASHED AT PROCESS EXIT" in text) == check.crashed_at_exit
+
+
+def test_the_check_plan_is_the_slaves_and_without_its_source_every_output(
+        models_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The doctor reads what to hold and read from the slave class; for an FMU whose
+    slave source is not available it holds no inputs and reads every Real output."""
+    info = host.unpack_fmu(models_dir / "GyroPlant.fmu", tmp_path / "fmu")
+    assert host.check_plan(info) == load_slave("GyroPlant").DOCTOR_CHECK
+    observer = host.unpack_fmu(models_dir / "GyroObserver.fmu", tmp_path / "observer")
+    assert load_slave("GyroObserver").DOCTOR_CHECK is None
+    assert host.check_plan(observer) == ({}, observer.outputs) and len(observer.outputs) == 20
+    monkeypatch.setattr(build, "source_dir", lambda: None)
+    assert host.check_plan(info) == ({}, ("x", "vx", "y", "vy", "ax", "ay"))
+    compiler = env.find_compiler()
+    if not sys.platform.startswith("linux") or compiler is None:
+        return
+    exe, log = host.compile_host(tmp_path, compiler)
+    assert exe is not None, log
+    run = host.run_host(exe, info, doc.doctor(compile_host=False,
+                                              fmu=models_dir / "GyroPlant.fmu").environment(),
+                        "no source", steps=3)
+    assert run.passed, run.stdout + run.stderr
+    assert sorted(run.outputs) == sorted(info.outputs)
+    assert all(v == [0.0, 0.0, 0.0] for v in run.outputs.values())  # at rest without inputs
 
 
 def test_settings_of_this_interpreter() -> None:

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from xml.etree import ElementTree
 
+from ..fmu.build import load_slave
 from .environment import fmi2_header_dir
 
 #: Source of the C host, shipped as package data.
@@ -36,13 +37,8 @@ HOST_EXIT_MEANING = {
     5: "an FMI call failed",
 }
 
-#: Inputs held over every step and outputs read, per FMU we know; others get
-#: no inputs and all their Real outputs. GyroPlant: 1e-7 N on x at 1 rad/s.
-CHECK_PLANS: dict[str, tuple[dict[str, float], tuple[str, ...]]] = {
-    "GyroPlant": ({"ux": 1e-7, "uy": 0.0, "Omega_z": 1.0}, ("x", "vx", "y", "vy")),
-    "TwoToneDrive": ({}, ("ux", "uy")),
-    "RateProfile": ({}, ("Omega_z",)),
-}
+#: A check plan: the Real inputs held over every step, and the outputs read.
+CheckPlan = tuple[dict[str, float], tuple[str, ...]]
 CHECK_STEP = 5e-6  #: s, the default communication step of the scenarios
 CHECK_STEPS = 20
 
@@ -127,6 +123,22 @@ def unpack_fmu(fmu: Path, dest: Path) -> FmuInfo:
                    dest / "resources", reals, tuple(outputs))
 
 
+def check_plan(info: FmuInfo) -> CheckPlan:
+    """What the check holds and reads: the DOCTOR_CHECK its slave class declares (found
+    by model identifier in the slave-source folder, `gyro_fmu.fmu.build.load_slave`).
+    Without one, no inputs and every Real output: an FMU given by path whose slave
+    source is not here (or fails to load), a slave declaring None, or a plan naming
+    variables this FMU does not have."""
+    try:
+        slave = load_slave(info.model_identifier)
+    except Exception:  # a broken or foreign slave source must not stop the diagnosis
+        slave = None
+    plan = getattr(slave, "DOCTOR_CHECK", None)
+    if plan is None or not {*plan[0], *plan[1]} <= info.real_vrs.keys():
+        return {}, info.outputs
+    return dict(plan[0]), tuple(plan[1])
+
+
 def compile_host(workdir: Path, compiler: str) -> tuple[Path | None, str]:
     """Compile fmu_host.c; returns (executable or None, compiler command and messages)."""
     exe = workdir / "fmu_host"
@@ -152,8 +164,9 @@ def run_host(
     steps: int = CHECK_STEPS,
     extra_args: Sequence[str] = (),
 ) -> HostRun:
-    """Run the C host on an unpacked FMU from a clean environment plus `env`."""
-    plan_inputs, plan_outputs = CHECK_PLANS.get(info.model_identifier, ({}, info.outputs))
+    """Run the C host on an unpacked FMU from a clean environment plus `env`; inputs and
+    outputs default to the FMU's `check_plan`."""
+    plan_inputs, plan_outputs = check_plan(info)
     inputs = plan_inputs if inputs is None else inputs
     names = list(plan_outputs if outputs is None else outputs)[:64]
     cmd = [str(exe), str(info.binary), info.guid, info.resources.as_uri(), repr(step), str(steps)]
