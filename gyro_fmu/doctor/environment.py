@@ -2,7 +2,8 @@
 
 The shared libpython to preload, ``PYTHONHOME``, the folders holding numpy and scipy
 (``PYTHONPATH``), this machine's glibc and the glibc an FMU binary needs, the system C
-compiler and the FMI 2.0 headers fmpy ships.
+compiler and the FMI 2.0 headers fmpy ships. The pythonfmu binaries do not link
+libpython; why each setting is needed is in docs/fmi-notes.md.
 """
 
 from __future__ import annotations
@@ -23,7 +24,8 @@ from pathlib import Path
 #: Modules the shipped gyro_fmu package imports that are not in the FMU itself.
 REQUIRED_MODULES: tuple[str, ...] = ("numpy", "scipy")
 
-#: Oldest glibc the pythonfmu 0.7.0 binary runs on (FIELD-NOTES; re-read from the binary).
+#: Oldest glibc the pythonfmu 0.7.0 binary runs on (its newest GLIBC_ symbol version;
+#: used when a binary names none, docs/fmi-notes.md).
 GLIBC_NEEDED = (2, 32)
 
 
@@ -41,11 +43,9 @@ class LibPython:
 def find_libpython() -> LibPython:
     """Locate the libpython this interpreter was built with.
 
-    Preference goes to INSTSONAME (``libpython3.11.so.1.0``), the file the
-    runtime loader actually maps; LDLIBRARY (``libpython3.11.so``) is only a
-    development symlink that Debian ships in -dev packages. Candidates cover
-    LIBDIR, the prefix's lib folder (pyenv, python.org, conda), LIBPL and the
-    multiarch system folders, and finally whatever the executable is linked to.
+    INSTSONAME (the file the loader maps) before LDLIBRARY (a -dev symlink), in LIBDIR,
+    the prefix's lib folder, LIBPL and the multiarch folders, then whatever the
+    executable links to. Only a --enable-shared build's own library counts.
     """
     version = f"{sys.version_info.major}.{sys.version_info.minor}"
     if sys.platform == "win32":

@@ -2,7 +2,8 @@
 
 `compile_host` builds the minimal FMI 2.0 co-simulation importer with the system C
 compiler, `unpack_fmu` reads what it needs from an FMU (`FmuInfo`), `run_host` runs it
-from a clean environment plus the variables given and parses its output (`HostRun`).
+from a clean environment (PATH=/usr/bin:/bin, no PYTHON* variable) plus the variables
+given and parses its output (`HostRun`). What the host does: docs/fmi-notes.md.
 """
 
 from __future__ import annotations

@@ -1,30 +1,11 @@
-"""`gyro-fmu doctor`: what a non-Python importer needs to load our FMUs, checked for real.
+"""`gyro-fmu doctor`: the settings a non-Python importer needs to load our FMUs, proved.
 
-The FMU binaries come from pythonfmu. They embed a Python interpreter but do not
-link libpython (FIELD-NOTES): inside a Python host (fmpy, libcosimpy) the
-symbols are already in the process, but OMSimulator, Simulink, Dymola or a C
-program must bring them, and the embedded interpreter must then find its
-standard library and numpy/scipy. This module works out, for the interpreter
-that runs it, the settings that make that happen:
-
-- the libpython shared library to preload (``LD_PRELOAD``; ``python3.dll`` and
-  ``python3X.dll`` on ``PATH`` on Windows);
-- ``PYTHONHOME``: measured, not optional. pythonfmu initializes Python with the
-  program name ``./PythonFMU``, so the embedded interpreter locates its prefix
-  by searching ``PATH`` for a ``python3``; with ``/usr/bin`` first it picked the
-  Debian 3.11.2 standard library for a pyenv 3.11.7 libpython here and failed
-  with ``No module named 'math'``;
-- ``PYTHONPATH``: the folders holding numpy and scipy (a venv's site-packages is
-  invisible to an interpreter whose home is the base installation);
-- the glibc the FMU binary needs (read from the binary's version references).
-
-It then proves the settings by compiling ``chost/fmu_host.c``, a minimal FMI 2.0
-co-simulation importer, with the system C compiler, and running it on an FMU
-three times: with the prescribed environment (must pass), with no Python
-settings at all (must fail at dlopen, which shows the check can fail) and with
-only the preload (shows what ``PYTHONHOME``/``PYTHONPATH`` add). The host runs
-from a clean environment (``PATH=/usr/bin:/bin``), so the user's shell cannot
-make the check pass by accident.
+`doctor()` collects the settings of this interpreter (`environment`: libpython to
+preload, PYTHONHOME, PYTHONPATH, glibc) and, unless told not to, runs the compiled C
+host on an FMU (`host`) three times: with those settings (must pass), with none (must
+fail at dlopen: the check can fail) and with the preload only. `DoctorReport.format()`
+is what the command prints; `main()` exits 0 when the setup works. Why each setting is
+needed: docs/fmi-notes.md.
 """
 
 from __future__ import annotations
