@@ -29,7 +29,7 @@ MANIFEST = f"{LS_REF_DIR}/fmi-ls-manifest.xml"
 _LS = "http://fmi-standard.org/fmi-ls-manifest"
 
 
-class ReferenceError(RuntimeError):
+class ReferenceResultError(RuntimeError):
     """An FMU without usable reference results."""
 
 
@@ -59,7 +59,8 @@ def _experiment(fmu: Path) -> tuple[str, float, float]:
     md = read_model_description(str(fmu))
     de = md.defaultExperiment
     if de is None or de.stopTime is None or de.stepSize is None:
-        raise ReferenceError(f"{fmu.name} has no DefaultExperiment with stopTime and stepSize")
+        raise ReferenceResultError(
+            f"{fmu.name} has no DefaultExperiment with stopTime and stepSize")
     return md.coSimulation.modelIdentifier, float(de.stopTime), float(de.stepSize)
 
 
@@ -110,14 +111,15 @@ def _read_related(z: zipfile.ZipFile, tmp: Path) -> dict[str, np.ndarray]:
     try:
         manifest = fromstring(z.read(MANIFEST))
     except KeyError:
-        raise ReferenceError(f"no {MANIFEST}: this FMU carries no reference results") from None
+        raise ReferenceResultError(
+            f"no {MANIFEST}: this FMU carries no reference results") from None
     tables = {}
     for rel in manifest.iter("Related"):
         path = tmp / rel.get("source")
         path.write_bytes(z.read(f"{LS_REF_DIR}/{rel.get('source')}"))
         tables[rel.get("role")] = read_csv(str(path))
     if "result" not in tables:
-        raise ReferenceError(f"{MANIFEST} names no reference result (role='result')")
+        raise ReferenceResultError(f"{MANIFEST} names no reference result (role='result')")
     return tables
 
 
