@@ -16,6 +16,7 @@ import time
 import zipfile
 from pathlib import Path
 
+from gyro_fmu.doctor import environment, host
 from gyro_fmu.doctor import report as doc
 from gyro_fmu.fmu.build import MODELS_DIR
 from gyro_fmu.system.run import ensure_fmus
@@ -35,14 +36,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=200)
     args = ap.parse_args()
-    compiler = doc.find_compiler()
+    compiler = environment.find_compiler()
     if compiler is None:
         raise SystemExit("no C compiler (cc, gcc, clang or $CC): nothing to measure")
     ensure_fmus()
     env = doc.doctor(compile_host=False).environment()
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
-        exe, log = doc.compile_host(work, compiler)
+        exe, log = host.compile_host(work, compiler)
         if exe is None:
             raise SystemExit(f"compiling the C host failed:\n{log}")
         print(f"{'FMU':<20} {'kernels':<9} {'wall s':>7}  result")
@@ -52,9 +53,9 @@ def main() -> None:
             stripped_dir.mkdir()
             for label, fmu in (("shipped", built),
                                ("removed", without_kernels(built, stripped_dir))):
-                info = doc.unpack_fmu(fmu, work / f"{name}_{label}")
+                info = host.unpack_fmu(fmu, work / f"{name}_{label}")
                 start = time.perf_counter()
-                run = doc.run_host(exe, info, env, label, steps=args.steps, step=5e-6)
+                run = host.run_host(exe, info, env, label, steps=args.steps, step=5e-6)
                 wall = time.perf_counter() - start
                 print(f"{name + '.fmu':<20} {label:<9} {wall:7.2f}  {run.verdict()[:60]}")
 

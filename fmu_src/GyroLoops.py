@@ -1,5 +1,6 @@
 """GyroLoops.fmu: the closed-loop electronics of US 9,482,553, one sample per step."""
 
+import numpy as np
 from pythonfmu.default_experiment import DefaultExperiment
 
 from gyro_fmu.fmu.slave import GyroSlave, Var
@@ -74,6 +75,20 @@ class GyroLoops(GyroSlave):
         Var("Vpy", "input", 0.0, "V", "y pick-off voltage sampled at the step start"),
         *_OUTPUTS,
     )
+
+    #: `gyro-fmu doctor`'s C-host check: None, no inputs set and every Real output read.
+    DOCTOR_CHECK = None
+
+    @classmethod
+    def reference_inputs(cls, stop_time: float, step: float) -> np.ndarray:
+        """Inputs of the reference run stored in the FMU: a 1 V, 4 kHz primary pick-off
+        and a small secondary one (the PLL locks, the AGC and the rebalance act)."""
+        from gyro_fmu.fmu.reference import input_table
+
+        t = np.arange(round(stop_time / step) + 1) * step
+        carrier = 2 * np.pi * 4000.0 * t
+        return input_table(t, {"Vpx": np.cos(carrier + 0.3),
+                               "Vpy": 0.01 * np.sin(carrier + 0.1)})
 
     def setup(self) -> None:
         from gyro_fmu.selfcal.loops import OUTPUTS, LoopsModel

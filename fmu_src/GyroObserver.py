@@ -1,5 +1,7 @@
 """GyroObserver.fmu: the augmented state observer of US 2011/0314910 A1 (eqs. 5-9)."""
 
+import numpy as np
+
 from gyro_fmu.estimation.observer import ObserverTuning
 from gyro_fmu.fmu.slave import GyroSlave, Var, dataclass_from_parameters, dataclass_parameters
 from gyro_fmu.model.parameters import DEFAULT_PRESET, PARAMETER_BOUNDS, PARAMETER_UNITS, PRESETS
@@ -46,6 +48,23 @@ class GyroObserver(GyroSlave):
         *(Var(f"sigma_{n}", "output", 0.0, _UNITS[n], f"1-sigma uncertainty of {n}", min=0.0)
           for n in _ESTIMATED),
     )
+
+    #: `gyro-fmu doctor`'s C-host check: None, no inputs set and every Real output read.
+    DOCTOR_CHECK = None
+
+    @classmethod
+    def reference_inputs(cls, stop_time: float, step: float) -> np.ndarray:
+        """Inputs of the reference run stored in the FMU: the default scenario's
+        two-tone drive and the noise-free measurements of its plant."""
+        from gyro_fmu.fmu.reference import input_table
+        from gyro_fmu.system.scenario import noise_free_run, scenario
+
+        sc = scenario("default", stop_time=stop_time, step=step)
+        t = np.arange(sc.n_steps + 1) * step
+        ux = np.array([sc.the_drive.ux(tk) for tk in t])
+        s = noise_free_run(sc)
+        return input_table(t, {"ux": ux, "uy": 0 * t, "x_meas": s[:, 0], "vx_meas": s[:, 1],
+                               "y_meas": s[:, 2], "vy_meas": s[:, 3]})
 
     state_holder = "observer"
 

@@ -1,5 +1,7 @@
 """GyroPlant.fmu: the 2-DOF MEMS gyroscope of US 2011/0314910 A1 (eqs. 3-5)."""
 
+import numpy as np
+
 from gyro_fmu.fmu.slave import GyroSlave, Var
 from gyro_fmu.model.parameters import DEFAULT_PRESET, PARAMETER_BOUNDS, PARAMETER_UNITS, PRESETS
 
@@ -40,6 +42,22 @@ class GyroPlant(GyroSlave):
         Var("ax", "output", 0.0, "m/s2", "x-axis acceleration (inputs of the last step)"),
         Var("ay", "output", 0.0, "m/s2", "y-axis acceleration (inputs of the last step)"),
     )
+
+    #: `gyro-fmu doctor`'s C-host check: (inputs held over every step, outputs read);
+    #: 1e-7 N on x at 1 rad/s moves the default plant by a few nm.
+    DOCTOR_CHECK = ({"ux": 1e-7, "uy": 0.0, "Omega_z": 1.0}, ("x", "vx", "y", "vy"))
+
+    @classmethod
+    def reference_inputs(cls, stop_time: float, step: float) -> np.ndarray:
+        """Inputs of the reference run stored in the FMU: the default scenario's
+        two-tone drive and a constant 1 rad/s."""
+        from gyro_fmu.fmu.reference import input_table
+        from gyro_fmu.system.scenario import scenario
+
+        sc = scenario("default", stop_time=stop_time, step=step)
+        t = np.arange(sc.n_steps + 1) * step
+        ux = np.array([sc.the_drive.ux(tk) for tk in t])
+        return input_table(t, {"ux": ux, "uy": 0 * t, "Omega_z": np.ones_like(t)})
 
     def setup(self) -> None:
         from gyro_fmu.model.parameters import GyroParameters

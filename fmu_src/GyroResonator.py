@@ -1,5 +1,6 @@
 """GyroResonator.fmu: the resonator of US 9,482,553 (eq. 1), voltages in and out."""
 
+import numpy as np
 from pythonfmu.default_experiment import DefaultExperiment
 
 from gyro_fmu.fmu.slave import GyroSlave, Var
@@ -53,6 +54,20 @@ class GyroResonator(GyroSlave):
         Var("Vpx", "output", 0.0, "V", "x pick-off voltage"),
         Var("Vpy", "output", 0.0, "V", "y pick-off voltage"),
     )
+
+    #: `gyro-fmu doctor`'s C-host check: None, no inputs set and every Real output read.
+    DOCTOR_CHECK = None
+
+    @classmethod
+    def reference_inputs(cls, stop_time: float, step: float) -> np.ndarray:
+        """Inputs of the reference run stored in the FMU: a 0.6 V drive at 4 kHz on x
+        and a constant 1 rad/s."""
+        from gyro_fmu.fmu.reference import input_table
+
+        t = np.arange(round(stop_time / step) + 1) * step
+        carrier = 2 * np.pi * 4000.0 * t
+        return input_table(t, {"Vx": 0.6 * np.sin(carrier), "Vy": 0 * t,
+                               "Omega_z": np.ones_like(t)})
 
     def setup(self) -> None:
         import numpy as np

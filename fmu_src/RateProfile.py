@@ -25,6 +25,14 @@ class RateProfile(GyroSlave):
         Var("Omega_z", "output", _R.offset, "rad/s", "angular rate about z"),
     )
 
+    #: `gyro-fmu doctor`'s C-host check: (inputs held over every step, outputs read).
+    DOCTOR_CHECK = ({}, ("Omega_z",))
+
+    @classmethod
+    def reference_inputs(cls, stop_time: float, step: float) -> None:
+        """The reference run stored in the FMU has no inputs."""
+        return None
+
     def setup(self) -> None:
         from gyro_fmu.model.rate import RateProfile as Profile
 

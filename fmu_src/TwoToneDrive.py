@@ -20,6 +20,14 @@ class TwoToneDrive(GyroSlave):
         Var("uy", "output", 0.0, "N", "y-axis drive force (0: single-axis control input)"),
     )
 
+    #: `gyro-fmu doctor`'s C-host check: (inputs held over every step, outputs read).
+    DOCTOR_CHECK = ({}, ("ux", "uy"))
+
+    @classmethod
+    def reference_inputs(cls, stop_time: float, step: float) -> None:
+        """The reference run stored in the FMU has no inputs."""
+        return None
+
     def setup(self) -> None:
         from gyro_fmu.model.drive import TwoToneDrive as Drive
 

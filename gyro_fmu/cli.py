@@ -126,13 +126,13 @@ def _cmd_observability(args: argparse.Namespace) -> int:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from .fmu.reference import ReferenceError, validate_reference
+    from .fmu.reference import ReferenceResultError, validate_reference
 
     failed = 0
     for fmu in args.fmu:
         try:
             checks = validate_reference(Path(fmu), dy=args.dy, dx=args.dx)
-        except (ReferenceError, FileNotFoundError) as exc:
+        except (ReferenceResultError, FileNotFoundError) as exc:
             print(f"{fmu}: FAIL: {exc}")
             failed += 1
             continue

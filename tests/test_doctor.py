@@ -8,19 +8,23 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gyro_fmu.doctor import environment as env
+from gyro_fmu.doctor import host
 from gyro_fmu.doctor import report as doc
+from gyro_fmu.fmu import build
+from gyro_fmu.fmu.build import load_slave
 from gyro_fmu.model.parameters import DEFAULT_PRESET, PRESETS
 from gyro_fmu.model.plant import GyroPlantModel
 
 needs_c_host = pytest.mark.skipif(
-    not sys.platform.startswith("linux") or doc.find_compiler() is None,
+    not sys.platform.startswith("linux") or env.find_compiler() is None,
     reason="the C-host check needs Linux and a C compiler (cc, gcc, clang or $CC)",
 )
 
 
 @pytest.fixture(scope="module")
 def report(models_dir: Path) -> doc.DoctorReport:
-    if not sys.platform.startswith("linux") or doc.find_compiler() is None:
+    if not sys.platform.startswith("linux") or env.find_compiler() is None:
         pytest.skip("the C-host check needs Linux and a C compiler (cc, gcc, clang or $CC)")
     return doc.doctor(models_dir / "GyroPlant.fmu")
 
@@ -30,15 +34,15 @@ def test_c_host_reproduces_python_plant(report: doc.DoctorReport) -> None:
     check = report.check
     assert check is not None, report.format()
     assert check.reached_end, report.format()
-    inputs, names = doc.CHECK_PLANS["GyroPlant"]
+    inputs, names = load_slave("GyroPlant").DOCTOR_CHECK
     model = GyroPlantModel(PRESETS[DEFAULT_PRESET])
     expected = []
-    for _ in range(doc.CHECK_STEPS):
-        model.step(inputs["ux"], inputs["uy"], inputs["Omega_z"], doc.CHECK_STEP)
+    for _ in range(host.CHECK_STEPS):
+        model.step(inputs["ux"], inputs["uy"], inputs["Omega_z"], host.CHECK_STEP)
         expected.append(model.measured().copy())
     expected_arr = np.array(expected)
-    assert len(check.times) == doc.CHECK_STEPS
-    np.testing.assert_allclose(check.times, doc.CHECK_STEP * np.arange(1, doc.CHECK_STEPS + 1),
+    assert len(check.times) == host.CHECK_STEPS
+    np.testing.assert_allclose(check.times, host.CHECK_STEP * np.arange(1, host.CHECK_STEPS + 1),
                                rtol=1e-15)
     for i, name in enumerate(names):
         got = np.array(check.outputs[name])
@@ -69,19 +73,43 @@ def test_c_host_exits_cleanly(report: doc.DoctorReport) -> None:
     assert ("CRASHED AT PROCESS EXIT" in text) == check.crashed_at_exit
 
 
+def test_the_check_plan_is_the_slaves_and_without_its_source_every_output(
+        models_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The doctor reads what to hold and read from the slave class; for an FMU whose
+    slave source is not available it holds no inputs and reads every Real output."""
+    info = host.unpack_fmu(models_dir / "GyroPlant.fmu", tmp_path / "fmu")
+    assert host.check_plan(info) == load_slave("GyroPlant").DOCTOR_CHECK
+    observer = host.unpack_fmu(models_dir / "GyroObserver.fmu", tmp_path / "observer")
+    assert load_slave("GyroObserver").DOCTOR_CHECK is None
+    assert host.check_plan(observer) == ({}, observer.outputs) and len(observer.outputs) == 20
+    monkeypatch.setattr(build, "source_dir", lambda: None)
+    assert host.check_plan(info) == ({}, ("x", "vx", "y", "vy", "ax", "ay"))
+    compiler = env.find_compiler()
+    if not sys.platform.startswith("linux") or compiler is None:
+        return
+    exe, log = host.compile_host(tmp_path, compiler)
+    assert exe is not None, log
+    run = host.run_host(exe, info, doc.doctor(compile_host=False,
+                                              fmu=models_dir / "GyroPlant.fmu").environment(),
+                        "no source", steps=3)
+    assert run.passed, run.stdout + run.stderr
+    assert sorted(run.outputs) == sorted(info.outputs)
+    assert all(v == [0.0, 0.0, 0.0] for v in run.outputs.values())  # at rest without inputs
+
+
 def test_settings_of_this_interpreter() -> None:
-    lib = doc.find_libpython()
+    lib = env.find_libpython()
     if lib.path is None:
         pytest.skip(f"this Python has no shared libpython: {lib.note}")
     assert lib.path.is_file() and "python" in lib.path.name
-    paths, missing = doc.required_paths()
+    paths, missing = env.required_paths()
     assert not missing
     assert all((Path(p) / "numpy").is_dir() or (Path(p) / "scipy").is_dir() for p in paths)
-    assert doc.python_home().startswith(sys.base_prefix)
+    assert env.python_home().startswith(sys.base_prefix)
 
 
 def test_no_compiler_skips_cleanly(models_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(doc, "find_compiler", lambda: None)
+    monkeypatch.setattr(doc, "find_compiler", lambda: None)  # as the report looks it up
     report = doc.doctor(models_dir / "TwoToneDrive.fmu")
     assert report.runs == []
     assert report.check is None
@@ -98,10 +126,10 @@ def test_a_non_python_host_loads_the_kernels_the_fmu_ships(models_dir: Path,
     the observer's compiled kernels from the FMU (NUMBA_DEBUG_CACHE shows from where)
     instead of compiling them (13.7 s per process before they were shipped)."""
     report = doc.doctor(models_dir / "GyroObserver.fmu", compile_host=False)
-    exe, log = doc.compile_host(tmp_path, doc.find_compiler())
+    exe, log = host.compile_host(tmp_path, env.find_compiler())
     assert exe is not None, log
-    info = doc.unpack_fmu(models_dir / "GyroObserver.fmu", tmp_path / "fmu")
-    run = doc.run_host(exe, info, {**report.environment(), "NUMBA_DEBUG_CACHE": "1"},
+    info = host.unpack_fmu(models_dir / "GyroObserver.fmu", tmp_path / "fmu")
+    run = host.run_host(exe, info, {**report.environment(), "NUMBA_DEBUG_CACHE": "1"},
                        "kernels", steps=5, step=5e-6)
     assert run.reached_end, run.stdout + run.stderr
     shipped = str(info.resources / "gyro_fmu" / "estimation" / "__pycache__"

@@ -60,3 +60,26 @@ def test_an_fmu_without_references_fails_clearly(models_dir, tmp_path, capsys):
                 zout.writestr(item, zin.read(item))
     assert main(["validate", str(bare)]) == 1
     assert "carries no reference results" in capsys.readouterr().out
+
+
+def test_each_slave_declares_its_reference_inputs_and_is_loaded_under_a_private_name():
+    """What an FMU needs lives with its slave: the fmu layer finds it at run time in the
+    slave-source folder, without registering the bare module name pythonfmu imports
+    inside an FMU (that name in sys.modules would shadow the FMU's own slave)."""
+    import sys
+
+    from gyro_fmu.fmu import build
+    from gyro_fmu.fmu.reference import reference_inputs
+
+    assert sorted(FMU_NAMES) == sorted(p.stem for p in build.source_dir().glob("[!_]*.py"))
+    build._load_slave_file.cache_clear()
+    for name in FMU_NAMES:
+        bare = sys.modules.get(name)  # an FMU run in this process may have imported it
+        slave = build.load_slave(name)
+        assert slave.__name__ == name and slave.__module__ == build.SLAVE_MODULE_PREFIX + name
+        assert sys.modules.get(name) is bare
+        assert callable(slave.reference_inputs) and hasattr(slave, "DOCTOR_CHECK")
+    table = reference_inputs("GyroPlant", 1e-4, 5e-6)
+    assert table.dtype.names == ("time", "ux", "uy", "Omega_z") and table.size == 21
+    assert reference_inputs("TwoToneDrive", 1e-4, 5e-6) is None
+    assert reference_inputs("NoSuchModel", 1e-4, 5e-6) is None  # no slave source: no inputs

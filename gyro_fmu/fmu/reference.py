@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import tempfile
 import zipfile
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from xml.etree.ElementTree import Element, SubElement, fromstring, tostring
@@ -21,62 +22,45 @@ import numpy as np
 from fmpy import read_model_description, simulate_fmu
 from fmpy.util import read_csv, validate_signal, write_csv
 
+from .build import load_slave
+
 LS_REF_DIR = "extra/org.fmi-standard.fmi-ls-ref"
 MANIFEST = f"{LS_REF_DIR}/fmi-ls-manifest.xml"
 _LS = "http://fmi-standard.org/fmi-ls-manifest"
 
 
-class ReferenceError(RuntimeError):
+class ReferenceResultError(RuntimeError):
     """An FMU without usable reference results."""
 
 
-def reference_inputs(model_name: str, stop_time: float, step: float) -> np.ndarray | None:
-    """Inputs of an FMU's reference run (structured array, 'time' first), or None.
-
-    GyroPlant gets the default two-tone drive and 1 rad/s; GyroObserver gets the
-    drive and the noise-free measurements of the default park-horowitz plant;
-    GyroResonator a 0.6 V drive at 4 kHz and 1 rad/s; GyroLoops a 1 V, 4 kHz primary
-    pick-off and a small secondary one (the PLL locks, the AGC and rebalance act).
-    """
-    if model_name in ("GyroResonator", "GyroLoops"):
-        t = np.arange(round(stop_time / step) + 1) * step
-        carrier = 2 * np.pi * 4000.0 * t
-        if model_name == "GyroResonator":
-            names, columns = ("Vx", "Vy", "Omega_z"), (0.6 * np.sin(carrier), 0 * t,
-                                                        np.ones_like(t))
-        else:
-            names, columns = ("Vpx", "Vpy"), (np.cos(carrier + 0.3),
-                                              0.01 * np.sin(carrier + 0.1))
-        table = np.zeros(t.size, dtype=[("time", float)] + [(n, float) for n in names])
-        table["time"] = t
-        for n, c in zip(names, columns, strict=True):
-            table[n] = c
-        return table
-    if model_name not in ("GyroPlant", "GyroObserver"):
-        return None
-    from ..system.scenario import noise_free_run, scenario
-
-    sc = scenario("default", stop_time=stop_time, step=step)
-    t = np.arange(sc.n_steps + 1) * step
-    ux = np.array([sc.the_drive.ux(tk) for tk in t])
-    if model_name == "GyroPlant":
-        names, columns = ("ux", "uy", "Omega_z"), (ux, 0 * t, np.ones_like(t))
-    else:
-        s = noise_free_run(sc)
-        names = ("ux", "uy", "x_meas", "vx_meas", "y_meas", "vy_meas")
-        columns = (ux, 0 * t, s[:, 0], s[:, 1], s[:, 2], s[:, 3])
-    table = np.zeros(t.size, dtype=[("time", float)] + [(n, float) for n in names])
-    table["time"] = t
-    for n, c in zip(names, columns, strict=True):
-        table[n] = c
+def input_table(time: np.ndarray, columns: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Reference inputs as fmpy takes them: a structured array, 'time' first, then
+    `columns` in their order."""
+    table = np.zeros(time.size, dtype=[("time", float)] + [(n, float) for n in columns])
+    table["time"] = time
+    for name, column in columns.items():
+        table[name] = column
     return table
+
+
+def reference_inputs(model_name: str, stop_time: float, step: float) -> np.ndarray | None:
+    """Inputs of an FMU's reference run (see `input_table`), or None for none.
+
+    Each slave declares its own (`reference_inputs(stop_time, step)` of its class in
+    the slave-source folder, found by `gyro_fmu.fmu.build.load_slave`); an FMU without
+    a slave source there, or a slave that declares nothing, runs without inputs.
+    """
+    slave = load_slave(model_name)
+    declared = getattr(slave, "reference_inputs", None)
+    return None if declared is None else declared(stop_time, step)
 
 
 def _experiment(fmu: Path) -> tuple[str, float, float]:
     md = read_model_description(str(fmu))
     de = md.defaultExperiment
     if de is None or de.stopTime is None or de.stepSize is None:
-        raise ReferenceError(f"{fmu.name} has no DefaultExperiment with stopTime and stepSize")
+        raise ReferenceResultError(
+            f"{fmu.name} has no DefaultExperiment with stopTime and stepSize")
     return md.coSimulation.modelIdentifier, float(de.stopTime), float(de.stepSize)
 
 
@@ -127,14 +111,15 @@ def _read_related(z: zipfile.ZipFile, tmp: Path) -> dict[str, np.ndarray]:
     try:
         manifest = fromstring(z.read(MANIFEST))
     except KeyError:
-        raise ReferenceError(f"no {MANIFEST}: this FMU carries no reference results") from None
+        raise ReferenceResultError(
+            f"no {MANIFEST}: this FMU carries no reference results") from None
     tables = {}
     for rel in manifest.iter("Related"):
         path = tmp / rel.get("source")
         path.write_bytes(z.read(f"{LS_REF_DIR}/{rel.get('source')}"))
         tables[rel.get("role")] = read_csv(str(path))
     if "result" not in tables:
-        raise ReferenceError(f"{MANIFEST} names no reference result (role='result')")
+        raise ReferenceResultError(f"{MANIFEST} names no reference result (role='result')")
     return tables
 
 
