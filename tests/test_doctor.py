@@ -53,11 +53,19 @@ def test_c_host_reproduces_python_plant(report: doc.DoctorReport) -> None:
 
 
 @needs_c_host
-def test_check_can_fail_without_the_environment(report: doc.DoctorReport) -> None:
+def test_the_fmu_needs_no_settings_and_the_check_can_fail(report: doc.DoctorReport) -> None:
+    """Our loader finds the Python that built the FMU: with nothing but PATH the C host
+    simulates; with that Python made unreachable, fmi2Instantiate fails (exit 4) with a
+    logged message that names what it looked for and the remedy."""
+    assert report.loader is not None and report.loader["libpython"]
     without = next(r for r in report.runs if r.label == "without")
-    assert without.returncode == 2, without.stdout  # dlopen failed
-    assert "undefined symbol: _Py" in without.stdout
-    assert not without.reached_end
+    assert without.returncode == 0 and without.reached_end, without.stdout + without.stderr
+    assert report.check is without
+    moved = next(r for r in report.runs if r.label == "Python moved")
+    assert moved.returncode == 4, moved.stdout + moved.stderr  # fmi2Instantiate returned NULL
+    said = moved.stdout + moved.stderr
+    assert "/nonexistent/libpython.so" in said and "PYTHONFMU_LIBPYTHON" in said
+    assert not moved.reached_end
 
 
 @needs_c_host

@@ -20,8 +20,8 @@ from gyro_fmu.system.scenario import CONNECTIONS, fmu_system, scenario
 from gyro_fmu.system.ssp import (
     PARAMETER_SET,
     SSD,
-    SSPError,
     SSV,
+    SSPError,
     relative_differences,
     run_ssp_libcosim,
     system_structure,

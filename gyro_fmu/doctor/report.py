@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..fmu.build import MODELS_DIR
+from ..fmu.loader import recorded_python
 from .environment import (
     GLIBC_NEEDED,
     REQUIRED_MODULES,
@@ -52,6 +53,8 @@ class DoctorReport:
     compile_log: str = ""
     runs: list[HostRun] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    #: What the FMU's own loader will use (resources/python_env.txt), None without one.
+    loader: dict[str, list[str]] | None = None
 
     def environment(self) -> dict[str, str]:
         """The variables a non-Python importer's process needs (POSIX form)."""
@@ -69,8 +72,10 @@ class DoctorReport:
 
     @property
     def check(self) -> HostRun | None:
-        """The run with the prescribed environment, if the check ran."""
-        return next((r for r in self.runs if r.label == "prescribed"), None)
+        """The run that must work, if the check ran: with no settings at all for an FMU
+        with our loader, with the prescribed environment for one without."""
+        label = "without" if self.loader is not None else "prescribed"
+        return next((r for r in self.runs if r.label == label), None)
 
     @property
     def ok(self) -> bool:
@@ -104,6 +109,14 @@ class DoctorReport:
             self.glibc_ok]
         out.append(f"   this machine {have}, FMU binary needs >= {need}: {verdict}")
         out.append("")
+        if self.loader is not None:
+            out.append("This FMU loads the Python it was built with by itself (its loader; no "
+                       "settings needed on this machine):")
+            for key in ("libpython", "pythonhome", "pythonpath"):
+                out.extend(f"   {key}: {v}" for v in self.loader.get(key, []))
+            out.append("On another machine, or after moving this Python, set these instead")
+            out.append("(the loader keeps PYTHONHOME/PYTHONPATH you set; PYTHONFMU_LIBPYTHON")
+            out.append("names another libpython):")
         out.append("In a shell (OMSimulator, a C program, or the shell that starts")
         out.append("MATLAB/Simulink or Dymola):")
         for key, value in self.environment().items():
@@ -175,9 +188,11 @@ def doctor(fmu: Path | None = None, compile_host: bool = True) -> DoctorReport:
         work = Path(tmp)
         fmu_path = Path(fmu) if fmu is not None else default_fmu(work)
         report.fmu = fmu_path
+        report.loader = recorded_python(fmu_path)
         info = unpack_fmu(fmu_path, work / "fmu")
+        real = info.binary.with_name(f"{info.binary.stem}_pythonfmu.so")  # behind our loader
         if info.binary.exists():
-            needed = glibc_required(info.binary.read_bytes())
+            needed = glibc_required((real if real.exists() else info.binary).read_bytes())
             report.glibc_needed = needed if needed is not None else (
                 GLIBC_NEEDED if sys.platform.startswith("linux") else None)
         else:
@@ -208,8 +223,12 @@ def _check(report: DoctorReport, info: FmuInfo, work: Path) -> None:
     env = report.environment()
     report.runs.append(run_host(exe, info, env, "prescribed"))
     report.runs.append(run_host(exe, info, {}, "without"))
-    preload_only = {k: v for k, v in env.items() if not k.startswith("PYTHON")}
-    report.runs.append(run_host(exe, info, preload_only, "preload only"))
+    if report.loader is not None:  # the check can fail: the recorded Python made unreachable
+        report.runs.append(run_host(exe, info, {"PYTHONFMU_LIBPYTHON": "/nonexistent/libpython.so"},
+                                    "Python moved"))
+    else:
+        preload_only = {k: v for k, v in env.items() if not k.startswith("PYTHON")}
+        report.runs.append(run_host(exe, info, preload_only, "preload only"))
     check = report.check
     if check is not None and check.crashed_at_exit:
         report.notes.append(

@@ -18,6 +18,7 @@ import os
 import shutil
 import sys
 import tempfile
+import warnings
 import zipfile
 import zlib
 from importlib.util import find_spec, module_from_spec, spec_from_file_location
@@ -133,6 +134,7 @@ def build_fmu(name: str, dest: Path = MODELS_DIR, reference: bool = True) -> Pat
             shutil.copy2(f, target)
         path = Path(FmuBuilder.build_FMU(script, dest=tmp, project_files=[package],
                                          **CAPABILITIES))
+        _install_loader(path)
         if reference:
             from .reference import write_reference
 
@@ -145,9 +147,37 @@ def build_fmu(name: str, dest: Path = MODELS_DIR, reference: bool = True) -> Pat
     return final
 
 
+def _install_loader(path: Path) -> None:
+    """Our loader in front of pythonfmu's binary (fmu/loader.py), so a non-Python host
+    needs no settings; without a C compiler the FMU keeps pythonfmu's binary alone."""
+    from .loader import LoaderUnavailableError, install_loader
+
+    try:
+        install_loader(path)
+    except LoaderUnavailableError as exc:
+        warnings.warn(f"{path.stem}: no Python loader ({exc}); a non-Python host needs the "
+                      "settings `gyro-fmu doctor` prints", stacklevel=3)
+
+
 def build_all(dest: Path = MODELS_DIR, names: tuple[str, ...] = FMU_NAMES) -> list[Path]:
     """Build the named FMUs (all by default) into dest."""
-    return [build_fmu(name, dest) for name in names]
+    return _ship_all_kernels([build_fmu(name, dest) for name in names])
+
+
+def _ship_all_kernels(paths: list[Path]) -> list[Path]:
+    """Give every FMU the kernel caches of all of them.
+
+    Each FMU's reference run compiles only its own kernels, so one pass leaves the
+    FMUs built first without the later ones' caches (a fresh build: only
+    GyroObserver.fmu had the observer's). A non-Python host imports gyro_fmu from
+    whichever FMU it loads first, so every FMU must carry every cache. After all
+    reference runs the tree holds them all; add_to_fmu adds only what is missing.
+    """
+    from .kernel_cache import add_to_fmu
+
+    for path in paths:
+        add_to_fmu(path, PACKAGE_DIR)
+    return paths
 
 
 def stale_sources(fmu: Path, name: str) -> list[str]:
@@ -193,4 +223,6 @@ def ensure_current(names: tuple[str, ...] = FMU_NAMES, dest: Path = MODELS_DIR) 
         path = dest / f"{name}.fmu"
         if not path.exists() or stale_sources(path, name):
             built.append(build_fmu(name, dest))
+    if built:  # the new caches also belong in the FMUs that were current
+        _ship_all_kernels([dest / f"{n}.fmu" for n in names if (dest / f"{n}.fmu").exists()])
     return built
