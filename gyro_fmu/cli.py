@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import warnings
 from pathlib import Path
@@ -11,117 +10,12 @@ from pathlib import Path
 from . import __version__
 from .cosim.master import CoSimulationError
 from .fmu.build import FMU_NAMES, MODELS_DIR, build_all
-from .model.parameters import PARAMETER_NAMES, PRESETS, ParameterError, UnstablePlantWarning
-from .model.rate import RateProfile
-from .system.scenario import SCENARIOS, Scenario, scenario
-
-
-def _assignments(items: list[str] | None, what: str) -> dict[str, float]:
-    out: dict[str, float] = {}
-    for item in items or []:
-        name, sep, value = item.partition("=")
-        if not sep:
-            raise ParameterError(f"{what} {item!r} must read NAME=VALUE, e.g. kxy=7.1e7")
-        try:
-            out[name.strip()] = float(value)
-        except ValueError:
-            raise ParameterError(f"{what} {item!r}: {value!r} is not a number") from None
-    return out
-
-
-def _scenario_from(args: argparse.Namespace) -> Scenario:
-    base = scenario(args.scenario)
-    changes: dict[str, object] = {}
-    if args.preset is not None:
-        changes["preset"] = args.preset
-    if args.set:
-        changes["overrides"] = {**base.overrides, **_assignments(args.set, "--set")}
-    if args.rate is not None:
-        try:
-            changes["rate"] = RateProfile.parse(args.rate)
-        except ValueError as exc:
-            raise ParameterError(str(exc)) from None
-    if args.drive is not None:
-        from .model.drive import TwoToneDrive
-
-        values = _assignments(args.drive, "--drive")
-        changes["drive"] = TwoToneDrive(**{**vars(base.the_drive), **values})
-    for name in ("stop_time", "step", "noise", "seed", "measured_pair", "Omega_z_0"):
-        value = getattr(args, name)
-        if value is not None:
-            changes[name] = value
-    if args.initial:
-        changes["initial"] = _assignments(args.initial, "--initial")
-    if args.tuning:
-        changes["tuning"] = _assignments(args.tuning, "--tuning")
-    return base.with_(**changes)
+from .model.parameters import ParameterError, UnstablePlantWarning
 
 
 def _cmd_build(args: argparse.Namespace) -> int:
     for path in build_all(Path(args.dest)):
         print(f"built {path.resolve()}")
-    return 0
-
-
-def _ensure_models(models: Path) -> None:
-    """Build missing or stale FMUs into `models` and say where they are."""
-    from .system.run import ensure_fmus
-
-    built = ensure_fmus(models)
-    print(f"FMUs in {models.resolve()}" + (f" (built {', '.join(p.stem for p in built)})"
-                                           if built else ""))
-
-
-def _cmd_run(args: argparse.Namespace) -> int:
-    from .system.run import run_and_report
-
-    sc = _scenario_from(args)
-    fmus = {k: Path(v) for k, v in (f.split("=", 1) for f in args.fmu or [])}
-    out = Path(args.out or f"runs/{args.scenario}")
-    if not fmus:
-        _ensure_models(Path(args.models))
-    summary = run_and_report(sc, out, Path(args.models), fmus, figures=not args.no_figures)
-    for message in summary["warnings"]:
-        print(f"warning: {message}", file=sys.stderr)
-    _print_summary(summary)
-    print(f"wrote {out}/results.csv, summary.json" + ("" if args.no_figures else
-          ", fig3_states.png, fig4_estimates.png"))
-    return 0
-
-
-def _cmd_report(args: argparse.Namespace) -> int:
-    from .model.parameters import GyroParameters
-    from .system.run import load_results, make_figures
-
-    run_dir = Path(args.run_dir)
-    summary_path = run_dir / "summary.json"
-    if not summary_path.exists():
-        raise ParameterError(f"{summary_path} not found: give a folder written by `gyro-fmu run`")
-    summary = json.loads(summary_path.read_text())
-    _print_summary(summary)
-    truth = GyroParameters(**summary["true_parameters"])
-    for path in make_figures(load_results(run_dir / "results.csv"), truth, run_dir):
-        print(f"wrote {path}")
-    return 0
-
-
-def _cmd_observability(args: argparse.Namespace) -> int:
-    from dataclasses import replace
-
-    from .estimation.observability import observability_report
-
-    sc = _scenario_from(args)
-    drive = sc.the_drive
-    drives = {"two tones": drive, f"tone 1 only ({drive.f1:g} Hz)": replace(drive, A2=0.0),
-              f"tone 2 only ({drive.f2:g} Hz)": replace(drive, A1=0.0)}
-    Omega = sc.rate.Omega_z(0.0)
-    print(f"preset {sc.preset}, Omega_z {Omega:g} rad/s, measured pair {sc.measured_pair}, "
-          f"window {args.window * 1e3:g} ms at {sc.step * 1e6:g} us (eq. 7, window test)")
-    for start in ("steady", "rest"):
-        for label, d in drives.items():
-            rep = observability_report(sc.params, d, Omega, sc.measured_pair, args.window,
-                                       sc.step, start=start)
-            print(f"  {start:>6}, {label:<26} {rep.summary().split(': ', 1)[1]}")
     return 0
 
 
@@ -152,171 +46,6 @@ def _cmd_doctor(args: argparse.Namespace) -> int:
     return doctor_main(Path(args.fmu) if args.fmu else None, compile_host=not args.no_compile)
 
 
-def _cmd_ssp(args: argparse.Namespace) -> int:
-    from .system.run import ensure_fmus, run_fmus
-    from .system.ssp import relative_differences, run_ssp_libcosim, write_ssp
-
-    sc = _scenario_from(args)
-    models = Path(args.models)
-    ensure_fmus(models)
-    path = write_ssp(sc, models, Path(args.out) if args.out else None)
-    print(f"wrote {path}")
-    if args.run or args.compare:
-        result = run_ssp_libcosim(path)
-        print(f"libcosim: Omega_hat at {sc.stop_time:g} s = "
-              f"{result['observer.Omega_hat'][-1]:.9g} rad/s")
-        if args.compare:
-            rel = relative_differences(result, run_fmus(sc, models))
-            worst = sorted(rel.items(), key=lambda kv: -kv[1])[:3]
-            print("max |libcosim - fmpy| / max |fmpy|, worst signals: "
-                  + ", ".join(f"{name} {value:.3g}" for name, value in worst))
-    return 0
-
-
-def _cmd_container(args: argparse.Namespace) -> int:
-    from .system.container import build_container
-    from .system.run import ensure_fmus
-
-    models = Path(args.models)
-    ensure_fmus(models)
-    path = build_container(models, Path(args.dest) if args.dest else None, args.step)
-    print(f"built {path}")
-    return 0
-
-
-def _cmd_identify(args: argparse.Namespace) -> int:
-    from .estimation.identify import identify, read_record
-    from .model.parameters import GyroParameters
-
-    sc = _scenario_from(args)  # the start of the fit: --preset/--set (default: park-horowitz)
-    rec = read_record(Path(args.results), args.measured_pair or 1, args.window)
-    start = GyroParameters(**sc.initial_guess) if args.start_from_guess else sc.params
-    ident = identify(rec, start, sc.Omega_z_0, noise_std=args.noise_std,
-                     fit_initial_state=args.fit_initial_state)
-    noise = "estimated from the residuals" if ident.noise_estimated else "given"
-    print(f"{args.results}: {ident.n_samples} samples over {ident.window * 1e3:g} ms at "
-          f"{rec.h * 1e6:g} us, pair {ident.measured_pair}; initial state "
-          f"{'fitted' if ident.fit_initial_state else 'at rest'}; noise std "
-          f"{ident.noise_std[0]:.3g}, {ident.noise_std[1]:.3g} ({noise})")
-    print(ident.table())
-    print(f"estimates +- Cramer-Rao 1-sigma at the solution; {ident.nfev} evaluations, "
-          f"{ident.message}")
-    if args.json:
-        Path(args.json).write_text(json.dumps(
-            {"estimates": ident.estimates, "crb_sigma": ident.crb_sigma,
-             "noise_std": ident.noise_std, "noise_estimated": ident.noise_estimated,
-             "initial_state": ident.initial_state, "window_s": ident.window}, indent=2))
-        print(f"wrote {args.json}")
-    return 0 if ident.success else 1
-
-
-def _cmd_design_drive(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    from .estimation.excitation import crb, design_drive, heat_map
-
-    sc = _scenario_from(args)
-    weights = _assignments(args.weight, "--weight") if args.weight else None
-    freqs = np.arange(args.f_min, args.f_max + 0.5 * args.f_step, args.f_step)
-    force = args.force_limit or (sc.the_drive.A1 + sc.the_drive.A2)
-    Omega = sc.rate.Omega_z(0.0)
-    noise = args.noise if args.noise is not None else 1e-4
-    d = design_drive(sc.params, freqs, force, Omega, noise, args.window, sc.step,
-                     sc.measured_pair, splits=args.splits, weights=weights,
-                     noise_kind=args.noise_kind)
-    current = crb(sc.params, sc.the_drive, Omega, noise, args.window, sc.step,
-                  sc.measured_pair, args.noise_kind)
-    p, best = d.proposal, d.proposal_sigma
-    print(f"preset {sc.preset}, Omega_z {Omega:g} rad/s, window {args.window * 1e3:g} ms, "
-          f"noise {noise:g} ({args.noise_kind}), force limit {force:g} N, "
-          f"{len(freqs)} frequencies {freqs[0]:g}..{freqs[-1]:g} Hz, splits {list(args.splits)}")
-    print(f"{'':>26}" + "".join(f"{n:>10}" for n in best))
-    print(f"{'CRB, proposal':>26}" + "".join(f"{v:10.3g}" for v in best.values()))
-    print(f"{f'CRB, {sc.the_drive.f1:g} + {sc.the_drive.f2:g} Hz':>26}"
-          + "".join(f"{v:10.3g}" for v in current.values()))
-    print(f"proposal: --drive f1={p.f1:g} --drive A1={p.A1:.4g} --drive f2={p.f2:g} "
-          f"--drive A2={p.A2:.4g}")
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    print(f"wrote {heat_map(d, out)}")
-    return 0
-
-
-def _cmd_sweep(args: argparse.Namespace) -> int:
-    from .model.parameters import PARAMETER_NAMES
-    from .system.sweep import SweepSpec, ToleranceModel, run_sweep, write_outputs
-
-    sc = _scenario_from(args)
-    spread = dict.fromkeys(PARAMETER_NAMES, args.spread)
-    spread.update(_assignments(args.spread_of, "--spread-of"))
-    tolerances = ToleranceModel(sc.preset, dict(sc.overrides), spread, args.distribution,
-                                args.tolerance_seed)
-    spec = SweepSpec(tolerances, n=args.n, noise=sc.noise if args.noise is not None else 1e-5,
-                     Omega_z=sc.rate.Omega_z(0.0), stop_time=sc.stop_time
-                     if args.stop_time is not None else 0.08, deadline=args.deadline,
-                     step=sc.step, measured_pair=sc.measured_pair, noise_seed=sc.seed,
-                     tuning=dict(sc.tuning))
-    res = run_sweep(spec, Path(args.models), scheduler=args.scheduler, n_workers=args.workers)
-    paths = write_outputs(res, Path(args.out), figures=not args.no_figures)
-    s = res.summary()
-    conv = s["convergence_time_s"]
-    print(f"{s['n']} gyros ({s['ok']} ok, {s['failed']} failed) in {s['wall_s']:.0f} s on "
-          f"{s['n_workers']} workers: {s['gyros_per_minute']:.1f} gyros/min")
-    print(f"all 8 within tolerance at {s['deadline_s'] * 1e3:g} ms: "
-          f"{s['fraction_all_within_at_deadline']:.1%}; convergence time p50 "
-          f"{(conv['p50'] or 0) * 1e3:.2f} ms, p95 {(conv['p95'] or 0) * 1e3:.2f} ms, "
-          f"never {conv['never']}")
-    for f in s["failures"][:10]:
-        print(f"  failed gyro {f['gyro']}: {f['reason']}")
-    print("wrote " + ", ".join(str(p) for p in paths))
-    return 0
-
-# --- in main(), after the `observability` subparser: ---------------------------------------
-
-
-def _print_summary(summary: dict) -> None:
-    sc = summary["scenario"]
-    print(f"preset {sc['preset']}, rate {sc['rate']['text']} rad/s, "
-          f"{sc['stop_time'] * 1e3:g} ms at {sc['step'] * 1e6:g} us, "
-          f"noise {sc['noise_relative_to_peak']:g} of peak, wall {summary['wall_time_s']:.2f} s")
-    print(f"{'unknown':>8} {'truth':>13} {'estimate':>13} {'sigma':>10} "
-          f"{'max err tail':>12} {'tol':>9} {'conv. at':>9}")
-    for name, u in summary["unknowns"].items():
-        conv = u["converged_within_tolerance_at_s"]
-        print(f"{name:>8} {u['truth_final']:13.6g} {u['estimate_final']:13.6g} "
-              f"{u['sigma_final']:10.3g} {u['max_abs_error_tail']:12.3g} {u['tolerance']:9.3g} "
-              f"{'never' if conv is None else f'{conv * 1e3:.2f} ms':>9}")
-    om = summary["unknowns"]["Omega_z"]
-    print(f"Omega_hat RMS error over the last 20%: {om['rms_error_tail']:.3g} rad/s; "
-          f"all within tolerance: {summary['all_within_tolerance_in_tail']}")
-
-
-def _scenario_options(r: argparse.ArgumentParser) -> None:
-    """Options that define a scenario (shared by run and observability)."""
-    r.add_argument("--scenario", default="default", choices=sorted(SCENARIOS),
-                   help="default: park-horowitz at 1 rad/s; patent: Table 1 corrected, "
-                        "sin(2 pi 100 t) rad/s")
-    r.add_argument("--preset", choices=sorted(PRESETS), help="parameter preset")
-    r.add_argument("--set", action="append", metavar="NAME=VALUE",
-                   help=f"override a true parameter ({', '.join(PARAMETER_NAMES)}), SI")
-    r.add_argument("--rate", help="rate profile: constant:1 | sine:AMP:FREQ[:OFFSET] | "
-                   "step:AMP:T0[:OFFSET] | ramp:SLOPE:T0[:OFFSET] (rad/s, Hz, s)")
-    r.add_argument("--drive", action="append", metavar="NAME=VALUE",
-                   help="drive setting A1, f1, A2, f2 (N, Hz)")
-    r.add_argument("--stop-time", dest="stop_time", type=float, help="s (default 0.1)")
-    r.add_argument("--step", type=float, help="communication step, s (default 5e-6)")
-    r.add_argument("--noise", type=float,
-                   help="measurement noise std as a fraction of each signal's peak")
-    r.add_argument("--seed", type=int, help="noise seed")
-    r.add_argument("--measured-pair", dest="measured_pair", type=int, choices=(1, 2),
-                   help="1: positions x, y (default); 2: velocities vx, vy")
-    r.add_argument("--initial", action="append", metavar="NAME=VALUE",
-                   help="observer initial guess of a parameter (default: truth x factors)")
-    r.add_argument("--Omega-z-0", dest="Omega_z_0", type=float,
-                   help="observer initial rate guess, rad/s")
-    r.add_argument("--tuning", action="append", metavar="NAME=VALUE",
-                   help="observer tuning parameter (see GyroObserver.fmu)")
-
 
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
@@ -332,82 +61,6 @@ def parser() -> argparse.ArgumentParser:
                    help="output folder (default models/ under the working directory)")
     b.set_defaults(func=_cmd_build)
 
-    common = argparse.ArgumentParser(add_help=False)
-    _scenario_options(common)
-    r = sub.add_parser("run", parents=[common],
-                       help="co-simulate a scenario through the FMUs with fmpy")
-    r.add_argument("--fmu", action="append", metavar="INSTANCE=PATH",
-                   help="use your FMU for an instance (drive, rate, plant, observer)")
-    r.add_argument("--models", default=str(MODELS_DIR),
-                   help="folder of our FMUs (default ./models)")
-    r.add_argument("--out", help="output folder (default runs/SCENARIO)")
-    r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
-    r.set_defaults(func=_cmd_run)
-
-
-    o = sub.add_parser("observability", parents=[common],
-                       help="rank and condition of the eq. 7 test, one tone vs two")
-    o.add_argument("--window", type=float, default=0.04, help="window length, s")
-    o.set_defaults(func=_cmd_observability)
-
-    i = sub.add_parser("identify", parents=[common],
-                       help="batch least-squares fit of the 7 parameters and a constant "
-                            "Omega_z to a recorded run, with the Cramer-Rao bound")
-    i.add_argument("results", help="CSV with time, drive.ux[, drive.uy] and plant.x, plant.y "
-                                   "(--measured-pair 1) or plant.vx, plant.vy (2)")
-    i.add_argument("--noise-std", dest="noise_std", type=float, nargs=2, metavar=("STD1", "STD2"),
-                   help="absolute noise std of the two measured signals (default: estimated "
-                        "from the residuals)")
-    i.add_argument("--window", type=float, help="use only the first WINDOW s of the record")
-    i.add_argument("--fit-initial-state", dest="fit_initial_state", action="store_true",
-                   help="fit the initial state too (default: the plant is at rest at the "
-                        "first sample)")
-    i.add_argument("--start-from-guess", dest="start_from_guess", action="store_true",
-                   help="start from the observer's initial guess instead of the preset values")
-    i.add_argument("--json", help="also write the estimates and bounds to this JSON file")
-    i.set_defaults(func=_cmd_identify)
-
-    dd = sub.add_parser("design-drive", parents=[common],
-                        help="Cramer-Rao bound over a grid of two-tone drives; propose the "
-                             "pair minimizing the bound on Omega_z (or a weighted sum)")
-    dd.add_argument("--window", type=float, default=0.04, help="window length, s")
-    dd.add_argument("--f-min", dest="f_min", type=float, default=500.0, help="Hz")
-    dd.add_argument("--f-max", dest="f_max", type=float, default=6000.0, help="Hz")
-    dd.add_argument("--f-step", dest="f_step", type=float, default=250.0, help="Hz")
-    dd.add_argument("--force-limit", dest="force_limit", type=float,
-                    help="A1 + A2, N (default: the scenario drive's A1 + A2)")
-    dd.add_argument("--splits", type=float, nargs="+", default=[0.25, 0.5, 0.75],
-                    help="fractions of the force limit on tone 1")
-    dd.add_argument("--noise-kind", dest="noise_kind", choices=("relative", "absolute"),
-                    default="relative", help="--noise as a fraction of each signal's peak "
-                    "(default 1e-4) or an absolute std in m (or m/s)")
-    dd.add_argument("--weight", action="append", metavar="NAME=W",
-                    help="objective: sum of W * sigma/tolerance (default Omega_z=1)")
-    dd.add_argument("--out", default="runs/design-drive/crb_heatmap.png", help="heat map PNG")
-    dd.set_defaults(func=_cmd_design_drive)
-
-    sw = sub.add_parser("sweep", parents=[common],
-                        help="Monte Carlo over fabrication tolerances: N gyros, each a real "
-                             "FMU co-simulation, on Dask")
-    sw.add_argument("-n", "--n", type=int, default=200, help="number of gyros")
-    sw.add_argument("--spread", type=float, default=0.10,
-                    help="relative spread of every parameter (default 0.10)")
-    sw.add_argument("--spread-of", dest="spread_of", action="append", metavar="NAME=S",
-                    help="relative spread of one parameter")
-    sw.add_argument("--distribution", choices=("uniform", "normal"), default="uniform",
-                    help="uniform: nominal*(1+S*U(-1,1)); normal: nominal*(1+S*N(0,1))")
-    sw.add_argument("--tolerance-seed", dest="tolerance_seed", type=int, default=0)
-    sw.add_argument("--deadline", type=float, help="s (default: the stop time, 0.08)")
-    sw.add_argument("--scheduler", help="address of an existing Dask scheduler "
-                                        "(default: a local cluster)")
-    sw.add_argument("--workers", type=int, help="local cluster workers (default: all cores)")
-    sw.add_argument("--models", default=str(MODELS_DIR),
-                   help="folder of our FMUs (default ./models)")
-    sw.add_argument("--out", default="runs/sweep", help="output folder")
-    sw.add_argument("--no-figures", action="store_true", help="skip the histograms")
-    sw.set_defaults(func=_cmd_sweep)
-
-
     v = sub.add_parser("validate", help="re-simulate FMUs and compare with the reference "
                        "results they carry (fmi-ls-ref); exit 1 on any difference")
     v.add_argument("fmu", nargs="+", help="FMU file(s)")
@@ -416,25 +69,6 @@ def parser() -> argparse.ArgumentParser:
     v.add_argument("--dx", type=int, default=1, help="band width in samples (default 1)")
     v.set_defaults(func=_cmd_validate)
 
-    s = sub.add_parser("ssp", parents=[common],
-                       help="write the scenario's system as an SSP package; --run: in libcosim")
-    s.add_argument("--models", default=str(MODELS_DIR),
-                   help="folder of our FMUs (default ./models)")
-    s.add_argument("--out", help="package file (default MODELS/GyroSystem.ssp)")
-    s.add_argument("--run", action="store_true", help="run the package in libcosim")
-    s.add_argument("--compare", action="store_true",
-                   help="run it in libcosim and in the fmpy master, print the differences")
-    s.set_defaults(func=_cmd_ssp)
-
-    c = sub.add_parser("container", help="build the whole system as one FMU "
-                       "(models/GyroSystem.fmu, fmu-manipulation-toolbox)")
-    c.add_argument("--models", default=str(MODELS_DIR),
-                   help="folder of our FMUs (default ./models)")
-    c.add_argument("--dest", help="container file (default MODELS/GyroSystem.fmu)")
-    c.add_argument("--step", type=float, default=5e-6,
-                   help="internal fixed step, s (default 5e-6)")
-    c.set_defaults(func=_cmd_container)
-
     d = sub.add_parser("doctor", help="what OMSimulator/Simulink/Dymola/C hosts need to load "
                        "the FMUs, checked with a compiled C host")
     d.add_argument("--fmu", help="FMU to load in the check (default models/GyroPlant.fmu)")
@@ -442,13 +76,11 @@ def parser() -> argparse.ArgumentParser:
                    help="print the settings only, skip the C-host check")
     d.set_defaults(func=_cmd_doctor)
 
-    rep = sub.add_parser("report", help="print the summary and redraw the figures of a run")
-    rep.add_argument("run_dir", help="folder written by `gyro-fmu run`")
-    rep.set_defaults(func=_cmd_report)
+    from .selfcal.cli import register as register_selfcal
+    from .system.cli import register as register_system
 
-    from .selfcal.cli import register
-
-    register(sub)
+    register_system(sub)
+    register_selfcal(sub)
     return p
 
 
