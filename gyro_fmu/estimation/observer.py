@@ -11,12 +11,13 @@ Design (each choice measured, see benchmarks/OBSERVER_NOTES.md):
   each step; over such a step the model is linear time-invariant and the plant
   (gyro_fmu.model.dynamics) integrates it exactly. The observer propagates its mean with the
   same exact map (Taylor series of expm to 1e-15, equal to the plant's step to 2e-16),
-  because any mismatch in input treatment biases Omega (FIELD-NOTES: 0.2 rad/s).
+  because any mismatch in input treatment biases Omega (0.2 rad/s for a 5e-4 gain
+  mismatch, docs/observability.md).
 - Exact sensitivities. The Jacobian of s(t+h) with respect to the parameters and
   Omega is the Frechet derivative of expm(A h) applied to [s, 1]; from the same powers
   T_j = (A h)^j / j! it is S = h sum_{j,m} j! m! / (j+m+1)! T_j G(T_m xi) (one extra
   matmul). A plain EKF with approximate Jacobians let dxx, dyy, dxy and Omega creep
-  (FIELD-NOTES: dxy 3-15 % off after 80 ms); with exact ones and the scaling below all
+  (a plain EKF: dxy 3-15 % off after 80 ms); with exact ones and the scaling below all
   seven parameters are within 1 % in under 1 ms (noise-free).
 - Scaling. Parameters are relative deviations from the initial guess, theta = theta_0 +
   scale p (scale = |theta_0|; damping coefficients share max |d_0| so a zero dyy is fine);

@@ -5,7 +5,7 @@ communication step (zero-order hold). Over such a step the model of
 `parameters.system_matrix` is linear time-invariant, so the step is solved
 exactly with one matrix exponential. Plant and observer both use this module:
 a mismatch in how they treat the input between samples biases the rate
-estimate (about 0.2 rad/s for a 5e-4 input-gain mismatch, FIELD-NOTES).
+estimate (about 0.2 rad/s for a 5e-4 input-gain mismatch; docs/observability.md).
 """
 
 from __future__ import annotations
