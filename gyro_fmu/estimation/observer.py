@@ -13,7 +13,7 @@ docs/observer-design.md.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, field, fields
 
 import numpy as np
 from numba import njit
@@ -40,30 +40,60 @@ def _ekf_step(model, noise, x, P, peak, nu2, F, Q, ux, uy, z1, z2, h):  # pragma
     kern.predict(m, x, P, F, Q, ux, uy, h)
 
 
+def _tuning(default: float, unit: str, description: str, **bounds: float):
+    """A tuning field with what dataclass_parameters puts in the FMU (unit, description)."""
+    return field(default=default, metadata={"unit": unit, "description": description,
+                                            "min": 0.0, **bounds})
+
+
 @dataclass(frozen=True)
 class ObserverTuning:
     """Tuning of GyroStateObserver; the defaults fit noise-free data.
 
     Noise convention of noise_rel: white noise with std = noise_rel x the signal's peak.
+    Units and meaning of each field are in its metadata (they become FMU parameters).
     """
 
-    noise_rel: float = 1.0e-6  #: noise std / running peak |z| (-); a floor for noise-free data
-    sigma_z1: float = 0.0  #: absolute noise std of z1 (m, or m/s for velocities); > 0 overrides
-    sigma_z2: float = 0.0  #: absolute noise std of z2 (m, or m/s for velocities); > 0 overrides
-    innov_floor: float = 0.5  #: relative mode: R >= innov_floor x EWMA(innovation^2) (-)
-    innov_tau: float = 1.0e-4  #: time constant of that innovation EWMA (s)
-    q_Omega: float = 1.0e9  #: white-noise density of dOmega/dt's derivative ((rad/s^2)^2 s)
-    omega_order: int = 2  #: Omega model: 1 random walk, 2 integrated RW, 3 twice integrated (-)
-    q_param_rel: float = 0.0  #: random-walk density of the relative parameter deviations (1/s)
-    sigma0_k_rel: float = 0.1  #: initial 1-sigma of kxx, kyy, kxy relative to the guess (-)
-    sigma0_d_rel: float = 0.5  #: initial 1-sigma of dxx, dyy, dxy relative to max |d_0| (-)
-    sigma0_m_rel: float = 0.1  #: initial 1-sigma of m relative to the guess (-)
-    sigma0_Omega: float = 2.0  #: initial 1-sigma of Omega_z (rad/s)
-    sigma0_Omega_rate: float = 1.0e3  #: initial 1-sigma of dOmega_z/dt (rad/s^2)
-    sigma0_Omega_acc: float = 1.0e6  #: initial 1-sigma of d2Omega_z/dt2, order 3 only (rad/s^3)
-    sigma0_position: float = 1.0e-10  #: initial 1-sigma of x and y (m)
-    sigma0_velocity: float = 1.0e-6  #: initial 1-sigma of vx and vy (m/s)
-    joseph: bool = False  #: Joseph-form covariance update (same figures measured, 13 us dearer)
+    noise_rel: float = _tuning(
+        1.0e-6, "1", "measurement noise std relative to the running peak of each measured "
+        "signal (used where sigma_z1, sigma_z2 are 0; a small floor for noise-free data)")
+    sigma_z1: float = _tuning(
+        0.0, "m", "absolute measurement noise std of z1 (x; in m/s for vx when "
+        "measured_pair = 2); > 0 overrides noise_rel")
+    sigma_z2: float = _tuning(
+        0.0, "m", "absolute measurement noise std of z2 (y; in m/s for vy when "
+        "measured_pair = 2); > 0 overrides noise_rel")
+    innov_floor: float = _tuning(
+        0.5, "1", "relative noise mode: the noise variance is at least innov_floor times "
+        "the running mean of the squared innovations")
+    innov_tau: float = _tuning(
+        1.0e-4, "s", "time constant of the running mean of the squared innovations")
+    q_Omega: float = _tuning(
+        1.0e9, "rad2/s5", "spectral density of the white noise driving the highest "
+        "derivative of Omega_z (unit for omega_order 2; rad2/s3 for 1, rad2/s7 for 3): "
+        "the rate-tracking bandwidth")
+    omega_order: int = _tuning(
+        2, "1", "model of Omega_z: 1 random walk, 2 integrated random walk, 3 twice "
+        "integrated random walk", min=1, max=3)
+    q_param_rel: float = _tuning(
+        0.0, "1/s", "random-walk spectral density of the relative parameter deviations "
+        "(0: constant parameters)")
+    sigma0_k_rel: float = _tuning(
+        0.1, "1", "initial 1-sigma of kxx, kyy, kxy relative to their initial guesses")
+    sigma0_d_rel: float = _tuning(
+        0.5, "1", "initial 1-sigma of dxx, dyy, dxy relative to the largest |d| guessed")
+    sigma0_m_rel: float = _tuning(
+        0.1, "1", "initial 1-sigma of m relative to its initial guess")
+    sigma0_Omega: float = _tuning(2.0, "rad/s", "initial 1-sigma of Omega_z")
+    sigma0_Omega_rate: float = _tuning(
+        1.0e3, "rad/s2", "initial 1-sigma of dOmega_z/dt (omega_order 2 and 3)")
+    sigma0_Omega_acc: float = _tuning(
+        1.0e6, "rad/s3", "initial 1-sigma of d2Omega_z/dt2 (omega_order 3)")
+    sigma0_position: float = _tuning(1.0e-10, "m", "initial 1-sigma of x and y")
+    sigma0_velocity: float = _tuning(1.0e-6, "m/s", "initial 1-sigma of vx and vy")
+    joseph: bool = _tuning(
+        False, "1", "1: Joseph-form covariance update (same results measured, slower); "
+        "0: P - K H P", max=1)
 
     def __post_init__(self) -> None:
         for f in fields(self):
