@@ -21,6 +21,7 @@ import numpy as np
 from gyro_fmu.estimation.observer import GyroStateObserver, ObserverTuning
 from gyro_fmu.model.drive import TwoToneDrive
 from gyro_fmu.model.dynamics import HeldInputStepper
+from gyro_fmu.model.measurement import MeasuredPair
 from gyro_fmu.model.parameters import (
     PARAMETER_NAMES,
     PRESET_DRIVE_AMPLITUDE,
@@ -220,18 +221,12 @@ def cramer_rao(name: str, drive: TwoToneDrive, Omega: float = 1.0, noise: float 
     Sk = np.zeros((4, 8))
     J = np.empty((n, 2, 8))
     Z = np.empty((n, 2))
-    sl = obs._hsl
+    rows = list(MeasuredPair.of(pair).state_rows)
+    theta = np.array([p.kxx, p.kyy, p.kxy, p.dxx, p.dyy, p.dxy, 1.0 / p.m])
     for k in range(n):
-        J[k] = Sk[sl] * obs._hgain[:, None]
-        Z[k] = s[sl] * obs._hgain
-        ux = drive.ux(k * h)
-        A = obs._Aaug
-        wx, wy = obs.wx, obs.wy
-        A[1, :] = [-p.kxx / wx, -p.dxx, -p.kxy / wx, (2 * Omega - p.dxy) * wy / wx, ux / p.m / wx]
-        A[3, :] = [-p.kxy / wy, -(p.dxy + 2 * Omega) * wx / wy, -p.kyy / wy, -p.dyy, 0.0]
-        obs._MgT[4, 6] = obs.scale[6] * ux / wx
-        obs._MgT[4, 14] = 0.0
-        s_new, Phi, S = obs._held_step(np.r_[s, 1.0], A * h, h)
+        J[k] = Sk[rows]
+        Z[k] = s[rows]
+        s_new, Phi, S = obs.held_step(s, drive.ux(k * h), 0.0, h, theta, Omega)
         Sk = Phi @ Sk + S
         s = s_new
     sig = noise * np.abs(Z).max(axis=0)

@@ -11,6 +11,7 @@ import pytest
 from gyro_fmu.estimation.observer import GyroStateObserver, ObserverTuning
 from gyro_fmu.model.drive import TwoToneDrive
 from gyro_fmu.model.dynamics import HeldInputStepper, held_input_maps
+from gyro_fmu.model.measurement import UNKNOWNS
 from gyro_fmu.model.parameters import (
     PARAMETER_NAMES,
     PRESET_DRIVE_AMPLITUDE,
@@ -73,23 +74,11 @@ def test_held_step_equals_plant_and_sensitivities_are_exact(name: str, h: float)
     Om, ux, uy = 0.7, 0.3, -0.2
     s = np.array([1e-8, 2e-4, 3e-9, -1e-4])
 
-    def step(theta: np.ndarray, om: float):
-        kxx, kyy, kxy, dxx, dyy, dxy, b = theta
-        wx, wy = obs.wx, obs.wy
-        A = obs._Aaug.copy()
-        A[1, :] = [-kxx / wx, -dxx, -kxy / wx, (2 * om - dxy) * wy / wx, b * ux / wx]
-        A[3, :] = [-kxy / wy, -(dxy + 2 * om) * wx / wy, -kyy / wy, -dyy, b * uy / wy]
-        obs._MgT[4, 6] = obs.scale[6] * ux / wx
-        obs._MgT[4, 14] = obs.scale[6] * uy / wy
-        return obs._held_step(np.r_[s * obs._Tdiag, 1.0], A * h, h)
-
-    s1, Phi, S = step(obs.theta0, Om)
+    s1, Phi, S = obs.held_step(s, ux, uy, h, obs.theta0, Om)
     Phi_ref, Gam_ref = held_input_maps(p, Om, h)
     ref = Phi_ref @ s + Gam_ref @ np.array([ux, uy])
-    np.testing.assert_allclose(s1 / obs._Tdiag, ref, rtol=1e-11, atol=1e-13 * np.abs(ref).max())
-    T = obs._Tdiag
-    np.testing.assert_allclose(Phi / T[:, None] * T[None, :], Phi_ref, rtol=1e-9,
-                               atol=1e-12 * np.abs(Phi_ref).max())
+    np.testing.assert_allclose(s1, ref, rtol=1e-11, atol=1e-13 * np.abs(ref).max())
+    np.testing.assert_allclose(Phi, Phi_ref, rtol=1e-9, atol=1e-12 * np.abs(Phi_ref).max())
     for i in range(8):  # central differences in each (scaled) parameter and Omega
         eps = 1e-4
         d = np.zeros(7)
@@ -98,8 +87,24 @@ def test_held_step_equals_plant_and_sensitivities_are_exact(name: str, h: float)
         th_p = obs.theta0 + obs.scale * d
         th_m = obs.theta0 - obs.scale * d
         om_p, om_m = (Om + eps, Om - eps) if i == 7 else (Om, Om)
-        fd = (step(th_p, om_p)[0] - step(th_m, om_m)[0]) / (2 * eps)
+        fd = (obs.held_step(s, ux, uy, h, th_p, om_p)[0]
+              - obs.held_step(s, ux, uy, h, th_m, om_m)[0]) / (2 * eps)
         np.testing.assert_allclose(S[:, i], fd, rtol=0, atol=1e-5 * np.abs(S[:, i]).max())
+
+
+def test_step_is_update_then_predict() -> None:
+    """step() (one compiled call) equals update() then predict(), bit for bit."""
+    name = "park-horowitz"
+    ux, z, hs = simulate(name, CONST, 300)
+    a = GyroStateObserver(guess(preset(name)))
+    b = GyroStateObserver(guess(preset(name)))
+    for k in range(len(ux)):
+        a.step(float(ux[k]), 0.0, float(z[k, 0]), float(z[k, 1]), float(hs[k]))
+        b.update(float(z[k, 0]), float(z[k, 1]), float(hs[k]))
+        b.predict(float(ux[k]), 0.0, float(hs[k]))
+    assert a.output_row() == b.output_row()
+    np.testing.assert_array_equal(a.P, b.P)
+    assert a.t == b.t
 
 
 # ---------------------------------------------------------------- convergence
@@ -176,12 +181,12 @@ def test_sigmas_are_consistent_with_errors_under_noise() -> None:
             obs.step(float(ux[k]), 0.0, float(z[k, 0]), float(z[k, 1]), H)
             if k >= n - 1000 and k % 50 == 0:
                 e, s = obs.estimates(), obs.sigmas()
-                est = np.array([e[nm] for nm in obs.ESTIMATED])
-                sig = np.array([s[nm] for nm in obs.ESTIMATED])
+                est = np.array([e[nm] for nm in UNKNOWNS])
+                sig = np.array([s[nm] for nm in UNKNOWNS])
                 assert np.all(np.isfinite(est)) and np.all(sig > 0)
                 ratios.append((est - truth) / sig)
     z_rms = np.sqrt(np.mean(np.square(ratios), axis=0))
-    assert np.all(z_rms > 1 / 3) and np.all(z_rms < 3), dict(zip(obs.ESTIMATED, z_rms, strict=True))
+    assert np.all(z_rms > 1 / 3) and np.all(z_rms < 3), dict(zip(UNKNOWNS, z_rms, strict=True))
 
 
 def test_sigmas_shrink_and_interface_keys() -> None:
@@ -190,11 +195,11 @@ def test_sigmas_shrink_and_interface_keys() -> None:
     ux, z, hs = simulate(name, CONST, 400)
     obs = GyroStateObserver(guess(p))
     s0 = obs.sigmas()
-    assert tuple(obs.estimates()) == GyroStateObserver.ESTIMATED
-    assert tuple(s0) == GyroStateObserver.ESTIMATED
+    assert tuple(obs.estimates()) == UNKNOWNS
+    assert tuple(s0) == UNKNOWNS
     run(obs, ux, z, hs)
     s1 = obs.sigmas()
-    for nm in obs.ESTIMATED:
+    for nm in UNKNOWNS:
         assert 0.0 < s1[nm] < s0[nm], nm
 
 

@@ -1,335 +1,99 @@
 """Online state observer of the single-axis-drive gyroscope (US 2011/0314910 A1, eqs. 5-9).
 
-The observer of eq. 8, x^' = f(x^) + B U + L C (X - X^), run as an extended Kalman
-filter: the gain L is recomputed every step from the covariance of the augmented
-state of eq. 5, X = [x, x', y, y', Omega_z, kxx, kyy, kxy, dxx, dyy, dxy, m], and the
-measurement is the pair of eq. 9 / claim 4, positions (x, y) or velocities (x', y').
-
-Design (each choice measured, see benchmarks/OBSERVER_NOTES.md):
-
-- Same discretization as the plant. In co-simulation ux, uy and Omega_z are held over
-  each step; over such a step the model is linear time-invariant and the plant
-  (gyro_fmu.model.dynamics) integrates it exactly. The observer propagates its mean with the
-  same exact map (Taylor series of expm to 1e-15, equal to the plant's step to 2e-16),
-  because any mismatch in input treatment biases Omega (0.2 rad/s for a 5e-4 gain
-  mismatch, docs/observability.md).
-- Exact sensitivities. The Jacobian of s(t+h) with respect to the parameters and
-  Omega is the Frechet derivative of expm(A h) applied to [s, 1]; from the same powers
-  T_j = (A h)^j / j! it is S = h sum_{j,m} j! m! / (j+m+1)! T_j G(T_m xi) (one extra
-  matmul). A plain EKF with approximate Jacobians let dxx, dyy, dxy and Omega creep
-  (a plain EKF: dxy 3-15 % off after 80 ms); with exact ones and the scaling below all
-  seven parameters are within 1 % in under 1 ms (noise-free).
-- Scaling. Parameters are relative deviations from the initial guess, theta = theta_0 +
-  scale p (scale = |theta_0|; damping coefficients share max |d_0| so a zero dyy is fine);
-  the input gain b = 1/m is estimated instead of m, since the model is linear in b.
-  Velocities are scaled per axis, vx / sqrt(kxx_0) and vy / sqrt(kyy_0), so that every
-  entry of A h is about omega h ~ 0.1 (well-conditioned Taylor series and covariance).
-- Omega model: integrated random walk (Omega, dOmega/dt) driven by white noise of
-  spectral density q_Omega, so a 100 Hz sine is tracked without the lag a random walk
-  has. q_Omega is the bandwidth / noise trade-off: q ~ (rms d2Omega/dt2)^2 / omega, about
-  1e8 for the patent's unit 100 Hz sine; the default 1e9 leaves a factor-3 margin on the
-  tracking error of that sine. Lower it for slowly varying rates and noisy signals.
-- Measurement noise. Either absolute stds (sigma_z1, sigma_z2), or relative
-  (noise_rel x running peak |z| of each signal: the convention of the benchmarks, noise
-  std = level x that signal's own peak). Early in a run the running peak is still
-  small (at t = 0 it is the noise itself) and would make R far too small; the filter
-  then fits the noise and diverges (measured). Hence in relative mode R is floored by
-  innov_floor x a short EWMA of the squared innovations, which in a consistent filter
-  (E nu^2 = H P H' + R) stays below R once converged.
-- Joseph-form updates gave identical figures; the cheaper P - K H P is the default.
-- Efficiency: with constant Omega and q_Omega = 1e2, noise 1e-4, 40 ms (park-horowitz),
-  the filter's sigmas are 1.1-1.3x the Cramer-Rao bound (Omega 0.037 vs 0.029 rad/s).
-  Rejected alternatives: UKF (25 propagations per step: too slow), iterated EKF (the
-  measurement is linear; nothing to iterate), covariance resetting (not needed once the
-  sensitivities are exact).
-
-Conventions: normalized k's in 1/s^2, d's in 1/s (parameters.py), m in kg, Omega_z in
-rad/s. step(ux, uy, z1, z2, h) first corrects with the measurement at t, then
-propagates to t + h with ux, uy and Omega_z held, as the plant does.
+The observer of eq. 8, x^' = f(x^) + B U + L C (X - X^), run as an extended Kalman filter
+on the augmented state of eq. 5, X = [x, x', y, y', Omega_z, kxx, kyy, kxy, dxx, dyy, dxy, m]
+(with 1/m in place of m), from the measured pair of eqs. 6 and 9 / claim 4: positions
+(x, y) or velocities (x', y'). Each step corrects with the measurement at t (eq. 8, gain
+from the covariance), then predicts to t + h with ux, uy and Omega_z held, exactly as
+the plant steps (eq. 5; kernels in observer_kernels). Units: k's 1/s^2, d's 1/s, m kg,
+Omega_z rad/s, forces N. Why it is built this way, with measurements:
+docs/observer-design.md.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, field, fields
 
 import numpy as np
 from numba import njit
 
-from ..model.dynamics import inf_norm_rows
+from ..model.measurement import UNKNOWNS, MeasuredPair
 from ..model.parameters import GyroParameters, check_parameters
+from . import observer_kernels as kern
+from .observer_kernels import I_OM, I_PAR, KMAX, N_PAR, NoiseModel, ObserverModel
 
-_N_PAR = 7  # kxx, kyy, kxy, dxx, dyy, dxy, b = 1/m
-_I_PAR = 4  # index of the first parameter in the filter state
-_I_OM = 11  # index of Omega_z
-_KMAX = 24  # most Taylor terms (||A h|| <= 0.5 needs 18)
-_STEP_NORM = 0.5  # longer steps are split into equal sub-steps
-_J = np.arange(_KMAX)
-_FACT = np.array([math.factorial(k) for k in range(2 * _KMAX + 2)], dtype=float)
-#: beta[j, m] = j! m! / (j + m + 1)!: weights of the Frechet series of expm.
-_BETA = _FACT[_J][:, None] * _FACT[_J][None, :] / _FACT[_J[:, None] + _J[None, :] + 1]
-_INV = 1.0 / np.arange(1, _KMAX + 1)
 _STATE_VERSION = 1
-#: Outputs of output_row(): state estimate, ESTIMATED, their 1-sigmas.
+#: Outputs of output_row(): state estimate, UNKNOWNS, their 1-sigmas.
 N_OUTPUTS = 4 + 8 + 8
 
 
-# ---------------------------------------------------------------- compiled kernels
-# One EKF step is ~40 small (5x5 .. 13x13) linear-algebra operations: in numpy each costs
-# 1-3 us of call overhead (120 us per step, benchmarks/PERF_NOTES.md); compiled with numba
-# the whole step takes a few us. The arithmetic is that of the numpy formulation it
-# replaced, written as loops (no fastmath: IEEE operations, no contraction).
 @njit(cache=True)
-def _n_terms(norm: float) -> int:
-    """Taylor terms K with norm^K / K! < 1e-15 (norm = ||A h||_inf <= 0.5)."""
-    term = 1.0
-    for k in range(1, _KMAX):
-        term *= norm / k
-        if term < 1e-15:
-            return k + 1
-    return _KMAX
+def _ekf_step(model, noise, x, P, peak, nu2, F, Q, ux, uy, z1, z2, h):  # pragma: no cover
+    """step() in one compiled call: correct at t, then predict to t + h.
+
+    model and noise arrive as plain tuples (numba types those 0.6 us faster per call
+    than NamedTuples) and are given their field names here.
+    """
+    m = ObserverModel(*model)
+    kern.correct(m, NoiseModel(*noise), x, P, peak, nu2, z1, z2, h)
+    kern.predict(m, x, P, F, Q, ux, uy, h)
 
 
-@njit(cache=True)
-def _held_step_single(xi0, Ah, h, MgT, beta, st, G, Gb, s1, Phi, S):  # pragma: no cover
-    """Taylor powers st[j] = (A h)^j / j!, their sum, and the Frechet series S (see _held_step)."""
-    norm = inf_norm_rows(Ah, 4, 5)
-    K = _n_terms(norm)
-    for j in range(K - 1):
-        inv = 1.0 / (j + 1)
-        for a in range(5):
-            for c in range(5):
-                acc = 0.0
-                for b in range(5):
-                    acc += st[j, a, b] * (Ah[b, c] * inv)
-                st[j + 1, a, c] = acc
-    for i in range(4):
-        for c in range(4):
-            acc = 0.0
-            for j in range(K):
-                acc += st[j, i, c]
-            Phi[i, c] = acc
-        acc = 0.0
-        for c in range(5):
-            e = 0.0
-            for j in range(K):
-                e += st[j, i, c]
-            acc += e * xi0[c]
-        s1[i] = acc
-    # G[m] = (T_m xi0) MgT: rows 1 and 3 of dA/d(p, Omega) (T_m xi0)
-    for m in range(K):
-        for q in range(16):
-            G[m, q] = 0.0
-        for a in range(5):
-            txi = 0.0
-            for b in range(5):
-                txi += st[m, a, b] * xi0[b]
-            for q in range(16):
-                G[m, q] += txi * MgT[a, q]
-    for j in range(K):
-        for q in range(16):
-            acc = 0.0
-            for m in range(K):
-                acc += beta[j, m] * G[m, q]
-            Gb[j, q] = acc
-    for i in range(4):
-        for q in range(8):
-            acc = 0.0
-            for j in range(K):
-                acc += st[j, i, 1] * Gb[j, q] + st[j, i, 3] * Gb[j, 8 + q]
-            S[i, q] = acc * h
-
-
-@njit(cache=True)
-def _held_step_kernel(xi0, Ah, h, MgT, beta, st, G, Gb, s1, Phi, S):  # pragma: no cover
-    """s1 = s(t+h), Phi = ds1/ds, S = ds1/d(p, Omega); long steps in equal sub-steps."""
-    norm = inf_norm_rows(Ah, 4, 5)
-    if norm <= _STEP_NORM:
-        _held_step_single(xi0, Ah, h, MgT, beta, st, G, Gb, s1, Phi, S)
-        return
-    nsub = math.ceil(norm / _STEP_NORM)
-    Ahs = Ah / nsub
-    xi = xi0.copy()
-    Phi_t = np.eye(4)
-    S_t = np.zeros((4, 8))
-    Phi1 = np.empty((4, 4))
-    S1 = np.empty((4, 8))
-    s_1 = np.empty(4)
-    for _ in range(nsub):
-        _held_step_single(xi, Ahs, h / nsub, MgT, beta, st, G, Gb, s_1, Phi1, S1)
-        S_t = Phi1 @ S_t + S1
-        Phi_t = Phi1 @ Phi_t
-        xi[:4] = s_1
-    s1[:] = xi[:4]
-    Phi[:, :] = Phi_t
-    S[:, :] = S_t
-
-
-@njit(cache=True)
-def _rel_R(nu2, j, nu, peak, h, noise_rel, innov_floor, innov_tau):  # pragma: no cover
-    """Relative-mode noise variance: (noise_rel peak)^2, floored by the innovations."""
-    v2 = nu * nu
-    e = nu2[j]
-    e = v2 if e < 0.0 else e + min(h / innov_tau, 1.0) * (v2 - e)
-    nu2[j] = e
-    return max((noise_rel * peak) ** 2, innov_floor * e)
-
-
-@njit(cache=True)
-def _ekf_step(x, P, peak, nu2, F, Q, MgT, A, theta0, scale, hgain, i0, wx, wy,
-              ux, uy, z1, z2, h, sz1, sz2, noise_rel, innov_floor, innov_tau, joseph,
-              beta, st, G, Gb):  # pragma: no cover
-    """Correct x, P with (z1, z2) at t, then propagate them to t + h, in place."""
-    n = x.shape[0]
-    i1 = i0 + 2
-    g0 = hgain[0]
-    g1 = hgain[1]
-    # ---- correction (eq. 8: L C (X - X^), L from the covariance)
-    nu0 = z1 - g0 * x[i0]
-    nu1 = z2 - g1 * x[i1]
-    if abs(z1) > peak[0]:
-        peak[0] = abs(z1)
-    if abs(z2) > peak[1]:
-        peak[1] = abs(z2)
-    if sz1 > 0.0:
-        R0 = sz1 * sz1
-    else:
-        R0 = _rel_R(nu2, 0, nu0, peak[0], h, noise_rel, innov_floor, innov_tau)
-    if sz2 > 0.0:
-        R1 = sz2 * sz2
-    else:
-        R1 = _rel_R(nu2, 1, nu1, peak[1], h, noise_rel, innov_floor, innov_tau)
-    a = P[i0, i0] * g0 * g0 + R0
-    b_ = P[i0, i1] * g0 * g1
-    c = P[i1, i0] * g0 * g1
-    d = P[i1, i1] * g1 * g1 + R1
-    det = a * d - b_ * c
-    if det > 0.0 and a > 0.0:
-        s00, s01, s10, s11 = d / det, -b_ / det, -c / det, a / det
-        PHt = np.empty((n, 2))
-        K = np.empty((n, 2))
-        for i in range(n):
-            PHt[i, 0] = P[i, i0] * g0
-            PHt[i, 1] = P[i, i1] * g1
-        for i in range(n):
-            K[i, 0] = PHt[i, 0] * s00 + PHt[i, 1] * s10
-            K[i, 1] = PHt[i, 0] * s01 + PHt[i, 1] * s11
-            x[i] = x[i] + (K[i, 0] * nu0 + K[i, 1] * nu1)
-        if joseph:
-            IKH = np.eye(n)
-            for i in range(n):
-                IKH[i, i0] -= K[i, 0] * g0
-                IKH[i, i1] -= K[i, 1] * g1
-            KR = np.empty((n, 2))
-            for i in range(n):
-                KR[i, 0] = K[i, 0] * R0
-                KR[i, 1] = K[i, 1] * R1
-            P[:, :] = IKH @ P @ IKH.T + KR @ K.T
-        else:
-            for i in range(n):
-                for j in range(n):
-                    P[i, j] -= K[i, 0] * PHt[j, 0] + K[i, 1] * PHt[j, 1]
-    # ---- propagation to t + h (eq. 5, held ux, uy, Omega_z, exact). A is eqs. 3-4 of
-    # parameters.system_matrix in the filter's scaling; tests/test_observer.py holds
-    # this step equal to the plant's.
-    kxx = theta0[0] + scale[0] * x[4]
-    kyy = theta0[1] + scale[1] * x[5]
-    kxy = theta0[2] + scale[2] * x[6]
-    dxx = theta0[3] + scale[3] * x[7]
-    dyy = theta0[4] + scale[4] * x[8]
-    dxy = theta0[5] + scale[5] * x[9]
-    b = theta0[6] + scale[6] * x[10]
-    Om = x[11]
-    A[1, 0] = -kxx / wx
-    A[1, 1] = -dxx
-    A[1, 2] = -kxy / wx
-    A[1, 3] = (2.0 * Om - dxy) * wy / wx
-    A[1, 4] = b * ux / wx
-    A[3, 0] = -kxy / wy
-    A[3, 1] = -(dxy + 2.0 * Om) * wx / wy
-    A[3, 2] = -kyy / wy
-    A[3, 3] = -dyy
-    A[3, 4] = b * uy / wy
-    MgT[4, 6] = scale[6] * ux / wx
-    MgT[4, 14] = scale[6] * uy / wy
-    xi0 = np.ones(5)
-    xi0[:4] = x[:4]
-    s1 = np.empty(4)
-    Phi = np.empty((4, 4))
-    S = np.empty((4, 8))
-    _held_step_kernel(xi0, A * h, h, MgT, beta, st, G, Gb, s1, Phi, S)
-    for i in range(4):
-        for j in range(4):
-            F[i, j] = Phi[i, j]
-        for j in range(8):
-            F[i, 4 + j] = S[i, j]
-    x_new = np.empty(n)
-    for i in range(n):
-        acc = 0.0
-        for j in range(n):
-            acc += F[i, j] * x[j]
-        x_new[i] = acc
-    x_new[:4] = s1
-    x[:] = x_new
-    FP = np.empty((n, n))
-    for i in range(n):
-        for j in range(n):
-            acc = 0.0
-            for k in range(n):
-                acc += F[i, k] * P[k, j]
-            FP[i, j] = acc
-    Pn = np.empty((n, n))
-    for i in range(n):
-        for j in range(n):
-            acc = 0.0
-            for k in range(n):
-                acc += FP[i, k] * F[j, k]
-            Pn[i, j] = acc + Q[i, j]
-    for i in range(n):
-        for j in range(n):
-            P[i, j] = (Pn[i, j] + Pn[j, i]) * 0.5
-
-
-@njit(cache=True)
-def _output_row(x, P, theta0, scale, Tdiag, out):  # pragma: no cover
-    """[x, vx, y, vy], ESTIMATED, their 1-sigmas (m by the delta method from b = 1/m)."""
-    for i in range(4):
-        out[i] = x[i] / Tdiag[i]
-    out[4] = x[_I_OM]
-    for i in range(6):
-        out[5 + i] = theta0[i] + scale[i] * x[_I_PAR + i]
-    b = theta0[6] + scale[6] * x[_I_PAR + 6]
-    out[11] = 1.0 / b
-    out[12] = math.sqrt(max(P[_I_OM, _I_OM], 0.0))
-    for i in range(6):
-        out[13 + i] = math.sqrt(max(P[_I_PAR + i, _I_PAR + i], 0.0)) * scale[i]
-    out[19] = math.sqrt(max(P[_I_PAR + 6, _I_PAR + 6], 0.0)) * scale[6] / (b * b)
+def _tuning(default: float, unit: str, description: str, **bounds: float):
+    """A tuning field with what dataclass_parameters puts in the FMU (unit, description)."""
+    return field(default=default, metadata={"unit": unit, "description": description,
+                                            "min": 0.0, **bounds})
 
 
 @dataclass(frozen=True)
 class ObserverTuning:
-    """Tuning of GyroStateObserver; the defaults meet the issue's noise-free targets.
+    """Tuning of GyroStateObserver; the defaults fit noise-free data.
 
     Noise convention of noise_rel: white noise with std = noise_rel x the signal's peak.
+    Units and meaning of each field are in its metadata (they become FMU parameters).
     """
 
-    noise_rel: float = 1.0e-6  #: noise std / running peak |z| (-); a floor for noise-free data
-    sigma_z1: float = 0.0  #: absolute noise std of z1 (m, or m/s for velocities); > 0 overrides
-    sigma_z2: float = 0.0  #: absolute noise std of z2 (m, or m/s for velocities); > 0 overrides
-    innov_floor: float = 0.5  #: relative mode: R >= innov_floor x EWMA(innovation^2) (-)
-    innov_tau: float = 1.0e-4  #: time constant of that innovation EWMA (s)
-    q_Omega: float = 1.0e9  #: white-noise density of dOmega/dt's derivative ((rad/s^2)^2 s)
-    omega_order: int = 2  #: Omega model: 1 random walk, 2 integrated RW, 3 twice integrated (-)
-    q_param_rel: float = 0.0  #: random-walk density of the relative parameter deviations (1/s)
-    sigma0_k_rel: float = 0.1  #: initial 1-sigma of kxx, kyy, kxy relative to the guess (-)
-    sigma0_d_rel: float = 0.5  #: initial 1-sigma of dxx, dyy, dxy relative to max |d_0| (-)
-    sigma0_m_rel: float = 0.1  #: initial 1-sigma of m relative to the guess (-)
-    sigma0_Omega: float = 2.0  #: initial 1-sigma of Omega_z (rad/s)
-    sigma0_Omega_rate: float = 1.0e3  #: initial 1-sigma of dOmega_z/dt (rad/s^2)
-    sigma0_Omega_acc: float = 1.0e6  #: initial 1-sigma of d2Omega_z/dt2, order 3 only (rad/s^3)
-    sigma0_position: float = 1.0e-10  #: initial 1-sigma of x and y (m)
-    sigma0_velocity: float = 1.0e-6  #: initial 1-sigma of vx and vy (m/s)
-    joseph: bool = False  #: Joseph-form covariance update (same figures measured, 13 us dearer)
+    noise_rel: float = _tuning(
+        1.0e-6, "1", "measurement noise std relative to the running peak of each measured "
+        "signal (used where sigma_z1, sigma_z2 are 0; a small floor for noise-free data)")
+    sigma_z1: float = _tuning(
+        0.0, "m", "absolute measurement noise std of z1 (x; in m/s for vx when "
+        "measured_pair = 2); > 0 overrides noise_rel")
+    sigma_z2: float = _tuning(
+        0.0, "m", "absolute measurement noise std of z2 (y; in m/s for vy when "
+        "measured_pair = 2); > 0 overrides noise_rel")
+    innov_floor: float = _tuning(
+        0.5, "1", "relative noise mode: the noise variance is at least innov_floor times "
+        "the running mean of the squared innovations")
+    innov_tau: float = _tuning(
+        1.0e-4, "s", "time constant of the running mean of the squared innovations")
+    q_Omega: float = _tuning(
+        1.0e9, "rad2/s5", "spectral density of the white noise driving the highest "
+        "derivative of Omega_z (unit for omega_order 2; rad2/s3 for 1, rad2/s7 for 3): "
+        "the rate-tracking bandwidth")
+    omega_order: int = _tuning(
+        2, "1", "model of Omega_z: 1 random walk, 2 integrated random walk, 3 twice "
+        "integrated random walk", min=1, max=3)
+    q_param_rel: float = _tuning(
+        0.0, "1/s", "random-walk spectral density of the relative parameter deviations "
+        "(0: constant parameters)")
+    sigma0_k_rel: float = _tuning(
+        0.1, "1", "initial 1-sigma of kxx, kyy, kxy relative to their initial guesses")
+    sigma0_d_rel: float = _tuning(
+        0.5, "1", "initial 1-sigma of dxx, dyy, dxy relative to the largest |d| guessed")
+    sigma0_m_rel: float = _tuning(
+        0.1, "1", "initial 1-sigma of m relative to its initial guess")
+    sigma0_Omega: float = _tuning(2.0, "rad/s", "initial 1-sigma of Omega_z")
+    sigma0_Omega_rate: float = _tuning(
+        1.0e3, "rad/s2", "initial 1-sigma of dOmega_z/dt (omega_order 2 and 3)")
+    sigma0_Omega_acc: float = _tuning(
+        1.0e6, "rad/s3", "initial 1-sigma of d2Omega_z/dt2 (omega_order 3)")
+    sigma0_position: float = _tuning(1.0e-10, "m", "initial 1-sigma of x and y")
+    sigma0_velocity: float = _tuning(1.0e-6, "m/s", "initial 1-sigma of vx and vy")
+    joseph: bool = _tuning(
+        False, "1", "1: Joseph-form covariance update (same results measured, slower); "
+        "0: P - K H P", max=1)
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -360,15 +124,19 @@ class ObserverTuning:
                 )
 
 
+
 class GyroStateObserver:
     """EKF form of the patent's state observer (eq. 8): Omega_z and the 7 parameters online.
 
-    Filter state: [x, vx/wx, y, vy/wy, p_kxx, p_kyy, p_kxy, p_dxx, p_dyy, p_dxy, p_b,
-    Omega_z, dOmega_z/dt (order >= 2), d2Omega_z/dt2 (order 3)], where wx = sqrt(kxx_0),
-    wy = sqrt(kyy_0), theta = theta_0 + scale p and b = 1/m.
+    step(ux, uy, z1, z2, h) = update(z1, z2, h) then predict(ux, uy, h): correct with the
+    measured pair at t, propagate to t + h with ux, uy (N) and Omega_z held. Filter state
+    [x, vx/wx, y, vy/wy, p_kxx, p_kyy, p_kxy, p_dxx, p_dyy, p_dxy, p_b, Omega_z,
+    dOmega_z/dt (order >= 2), d2Omega_z/dt2 (order 3)], wx = sqrt(kxx_0), wy = sqrt(kyy_0),
+    theta = theta_0 + scale p, b = 1/m.
     """
 
-    ESTIMATED: tuple[str, ...] = ("Omega_z", "kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m")
+    #: The unknowns, in the order of estimates() and sigmas() (model.measurement.UNKNOWNS).
+    ESTIMATED: tuple[str, ...] = UNKNOWNS
 
     def __init__(
         self,
@@ -377,11 +145,7 @@ class GyroStateObserver:
         measured_pair: int = 1,
         tuning: ObserverTuning | None = None,
     ) -> None:
-        if measured_pair not in (1, 2) or isinstance(measured_pair, bool):
-            raise ValueError(
-                f"measured_pair={measured_pair!r} is invalid: use 1 for positions (x, y) "
-                "or 2 for velocities (vx, vy) (patent claim 4)"
-            )
+        pair = MeasuredPair.of(measured_pair)
         if not isinstance(initial, GyroParameters):
             raise ValueError(
                 f"initial={initial!r} must be a GyroParameters (e.g. parameters.preset(...))"
@@ -400,9 +164,9 @@ class GyroStateObserver:
         if not isinstance(tun, ObserverTuning):
             raise ValueError(f"tuning={tun!r} must be an ObserverTuning or None")
         self.tuning = tun
-        self.measured_pair = measured_pair
+        self.measured_pair = pair
         self.order = int(tun.omega_order)
-        self.n = 4 + _N_PAR + self.order
+        self.n = 4 + N_PAR + self.order
         wx = math.sqrt(initial.kxx)
         wy = math.sqrt(initial.kyy)
         theta0 = np.array([initial.kxx, initial.kyy, initial.kxy, initial.dxx, initial.dyy,
@@ -413,7 +177,7 @@ class GyroStateObserver:
                           1.0 / initial.m])
         self._build(wx, wy, theta0, scale)
         xhat = np.zeros(self.n)
-        xhat[_I_OM] = Omega_z_0
+        xhat[I_OM] = Omega_z_0
         sig = np.zeros(self.n)
         sig[[0, 2]] = tun.sigma0_position
         sig[1] = tun.sigma0_velocity / wx
@@ -421,11 +185,11 @@ class GyroStateObserver:
         sig[4:7] = tun.sigma0_k_rel * np.abs(theta0[:3]) / scale[:3]
         sig[7:10] = tun.sigma0_d_rel
         sig[10] = tun.sigma0_m_rel
-        sig[_I_OM] = tun.sigma0_Omega
+        sig[I_OM] = tun.sigma0_Omega
         if self.order >= 2:
-            sig[_I_OM + 1] = tun.sigma0_Omega_rate
+            sig[I_OM + 1] = tun.sigma0_Omega_rate
         if self.order >= 3:
-            sig[_I_OM + 2] = tun.sigma0_Omega_acc
+            sig[I_OM + 2] = tun.sigma0_Omega_acc
         self.xhat = xhat
         self.P = np.diag(sig**2)
         self.peak = np.zeros(2)  # running peak |z1|, |z2|
@@ -433,7 +197,7 @@ class GyroStateObserver:
         self.t = 0.0  # s since construction
 
     def _build(self, wx: float, wy: float, theta0: np.ndarray, scale: np.ndarray) -> None:
-        """Caches that depend only on the scaling (rebuilt by set_state)."""
+        """The ObserverModel and caches that depend only on the scaling (set_state too)."""
         self.wx, self.wy = wx, wy
         self.theta0 = theta0
         self.scale = scale
@@ -451,32 +215,30 @@ class GyroStateObserver:
         Mg[1, 5, 1] = -scale[5] / r
         Mg[0, 7, 3] = 2.0 * r
         Mg[1, 7, 1] = -2.0 / r
-        self._MgT = Mg.reshape(16, 5).T.copy()  # entries [4, 6], [4, 14] (input gain) per step
-        self._Aaug = np.zeros((5, 5))
-        self._Aaug[0, 1] = wx
-        self._Aaug[2, 3] = wy
-        self._stack = np.zeros((_KMAX, 5, 5))
-        self._stack[0] = np.eye(5)
+        A = np.zeros((5, 5))
+        A[0, 1] = wx
+        A[2, 3] = wy
+        stack = np.zeros((KMAX, 5, 5))
+        stack[0] = np.eye(5)
+        i0 = self.measured_pair.state_rows[0]
+        hgain = np.array([1.0, 1.0] if self.measured_pair is MeasuredPair.POSITIONS
+                         else [wx, wy])
+        self._model = ObserverModel(
+            theta0=theta0, scale=scale, wx=wx, wy=wy, i0=i0, hgain=hgain, A=A,
+            MgT=Mg.reshape(16, 5).T.copy(), stack=stack,
+            G=np.zeros((KMAX, 16)), Gb=np.zeros((KMAX, 16)))
+        tun = self.tuning
+        self._noise = NoiseModel(
+            sigma_z1=float(tun.sigma_z1), sigma_z2=float(tun.sigma_z2),
+            noise_rel=float(tun.noise_rel), innov_floor=float(tun.innov_floor),
+            innov_tau=float(tun.innov_tau), joseph=bool(tun.joseph))
+        self._model_t, self._noise_t = tuple(self._model), tuple(self._noise)
         self._F = np.eye(n)
         self._Q = np.zeros((n, n))
         self._h_cached = -1.0
         self._Tdiag = np.array([1.0, 1.0 / wx, 1.0, 1.0 / wy])
-        if self.measured_pair == 1:
-            self._hsl = slice(0, 3, 2)
-            self._hgain = np.array([1.0, 1.0])
-        else:
-            self._hsl = slice(1, 4, 2)
-            self._hgain = np.array([wx, wy])
-        self._hg = tuple(self._hgain.tolist())
-        self._i0 = self._hsl.start
-        self._G = np.zeros((_KMAX, 16))
-        self._Gb = np.zeros((_KMAX, 16))
         self._out = np.empty(N_OUTPUTS)
-        tun = self.tuning
-        self._kargs = (float(tun.sigma_z1), float(tun.sigma_z2), float(tun.noise_rel),
-                       float(tun.innov_floor), float(tun.innov_tau), bool(tun.joseph))
 
-    # ------------------------------------------------------------------ internals
     def _set_h(self, h: float) -> None:
         """Omega-model transition and process noise of a step h (cached: h rarely changes)."""
         tun = self.tuning
@@ -485,31 +247,29 @@ class GyroStateObserver:
         Q = np.zeros((n, n))
         for a in range(r):
             for c in range(a + 1, r):
-                F[_I_OM + a, _I_OM + c] = h ** (c - a) / math.factorial(c - a)
+                F[I_OM + a, I_OM + c] = h ** (c - a) / math.factorial(c - a)
         for a in range(r):  # white noise on the r-th derivative of Omega
             for c in range(r):
                 pa, pc = r - 1 - a, r - 1 - c
-                Q[_I_OM + a, _I_OM + c] = tun.q_Omega * h ** (pa + pc + 1) / (
+                Q[I_OM + a, I_OM + c] = tun.q_Omega * h ** (pa + pc + 1) / (
                     math.factorial(pa) * math.factorial(pc) * (pa + pc + 1))
-        for i in range(_N_PAR):
-            Q[_I_PAR + i, _I_PAR + i] = tun.q_param_rel * h
+        for i in range(N_PAR):
+            Q[I_PAR + i, I_PAR + i] = tun.q_param_rel * h
         self._Q = Q
         self._h_cached = h
 
-    def _held_step(self, xi0: np.ndarray, Ah: np.ndarray, h: float
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """One exact held-input step (eq. 5): s(t+h), Phi = ds+/ds, S = ds+/d(p, Omega).
+    @staticmethod
+    def _check_h(h: float) -> None:
+        if not (h > 0.0 and math.isfinite(h)):
+            raise ValueError(f"step h={h!r} s must be finite and > 0")
 
-        Taylor powers T_j = (A h)^j / j! give Phi_aug = sum T_j = expm(A_aug h) and the
-        Frechet series S = h sum_{j,m} j! m! / (j+m+1)! T_j G(T_m xi0), G(xi) = dA/dtheta xi.
-        Steps with ||A h|| > 0.5 are split into equal sub-steps (Jacobians chained).
-        The same kernel runs inside step().
-        """
-        s1, Phi, S = np.empty(4), np.empty((4, 4)), np.empty((4, 8))
-        _held_step_kernel(np.ascontiguousarray(xi0, dtype=float),
-                          np.ascontiguousarray(Ah, dtype=float), float(h), self._MgT, _BETA,
-                          self._stack, self._G, self._Gb, s1, Phi, S)
-        return s1, Phi, S
+    @staticmethod
+    def _check_finite(**values: float) -> None:
+        if not all(math.isfinite(v) for v in values.values()):
+            raise ValueError(
+                "non-finite input " + ", ".join(f"{k}={v!r}" for k, v in values.items())
+                + ": pass finite forces (N) and measurements"
+            )
 
     # ------------------------------------------------------------------ API
     def step(self, ux: float, uy: float, z1: float, z2: float, h: float) -> None:
@@ -517,49 +277,81 @@ class GyroStateObserver:
 
         ux, uy (N) are the drive force at t, held over [t, t+h] as the plant holds it;
         Omega_z is likewise held at its estimate over the step. h (s) may vary.
+        Same as update(z1, z2, h) then predict(ux, uy, h), in one compiled call.
         """
         if not (h > 0.0 and math.isfinite(h)):
-            raise ValueError(f"step h={h!r} s must be finite and > 0")
+            self._check_h(h)
         if not (math.isfinite(ux) and math.isfinite(uy) and math.isfinite(z1)
                 and math.isfinite(z2)):
-            raise ValueError(
-                f"non-finite input ux={ux!r}, uy={uy!r}, z1={z1!r}, z2={z2!r}: "
-                "pass finite forces (N) and measurements"
-            )
+            self._check_finite(ux=ux, uy=uy, z1=z1, z2=z2)
         if h != self._h_cached:
             self._set_h(h)
-        sz1, sz2, noise_rel, innov_floor, innov_tau, joseph = self._kargs
-        _ekf_step(self.xhat, self.P, self.peak, self.nu2, self._F, self._Q, self._MgT,
-                  self._Aaug, self.theta0, self.scale, self._hgain, self._i0, self.wx, self.wy,
-                  float(ux), float(uy), float(z1), float(z2), float(h), sz1, sz2, noise_rel,
-                  innov_floor, innov_tau, joseph, _BETA, self._stack, self._G, self._Gb)
+        _ekf_step(self._model_t, self._noise_t, self.xhat, self.P, self.peak, self.nu2,
+                  self._F, self._Q, float(ux), float(uy), float(z1), float(z2), float(h))
         self.t += h
 
+    def update(self, z1: float, z2: float, h: float) -> None:
+        """Correct the estimate with the measured pair (z1, z2) at t (eq. 8).
+
+        h (s) is the step that follows: the time base of the innovation average.
+        """
+        self._check_h(h)
+        self._check_finite(z1=z1, z2=z2)
+        kern.correct(self._model, self._noise, self.xhat, self.P, self.peak, self.nu2,
+                     float(z1), float(z2), float(h))
+
+    def predict(self, ux: float, uy: float, h: float) -> None:
+        """Propagate the estimate and its covariance to t + h (eq. 5), ux, uy (N) held."""
+        self._check_h(h)
+        self._check_finite(ux=ux, uy=uy)
+        if h != self._h_cached:
+            self._set_h(h)
+        kern.predict(self._model, self.xhat, self.P, self._F, self._Q, float(ux), float(uy),
+                     float(h))
+        self.t += h
+
+    def held_step(self, s: np.ndarray, ux: float, uy: float, h: float,
+                  theta: np.ndarray | None = None, Omega_z: float | None = None
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The observer's exact held-input step (eq. 5) of a plant state, as predict runs it.
+
+        s = [x, vx, y, vy] (m, m/s) at t; ux, uy (N) and Omega_z (rad/s) held over h (s);
+        theta = [kxx, kyy, kxy, dxx, dyy, dxy, 1/m] (default: the current estimates).
+        Returns s(t+h), Phi = ds(t+h)/ds (4x4) and S = ds(t+h)/d(p, Omega_z) (4x8), where
+        p are the filter's scaled parameter deviations, theta = theta_0 + scale p.
+        """
+        x = self.xhat
+        th = (self.theta0 + self.scale * x[I_PAR:I_PAR + N_PAR] if theta is None
+              else np.asarray(theta, dtype=float))
+        om = float(x[I_OM] if Omega_z is None else Omega_z)
+        T = self._Tdiag
+        s1, Phi, S = kern.held_step(self._model, np.ascontiguousarray(th), om,
+                                    np.asarray(s, dtype=float) * T, float(ux), float(uy),
+                                    float(h))
+        return s1 / T, Phi / T[:, None] * T[None, :], S / T[:, None]
+
     def output_row(self) -> list[float]:
-        """[x, vx, y, vy] (m, m/s), ESTIMATED, then their 1-sigmas: what the FMU publishes."""
-        _output_row(self.xhat, self.P, self.theta0, self.scale, self._Tdiag, self._out)
+        """[x, vx, y, vy] (m, m/s), UNKNOWNS, then their 1-sigmas: what the FMU publishes."""
+        kern.output_row(self.theta0, self.scale, self.xhat, self.P, self._Tdiag, self._out)
         return self._out.tolist()
 
     def state_estimate(self) -> np.ndarray:
         """[x, vx, y, vy] at the current time (m, m/s)."""
         return np.array(self.output_row()[:4])
 
-    def _theta(self) -> np.ndarray:
-        return self.theta0 + self.scale * self.xhat[_I_PAR:_I_PAR + _N_PAR]
-
     def estimates(self) -> dict[str, float]:
-        """Current estimates of ESTIMATED (k's 1/s^2, d's 1/s, m kg, Omega_z rad/s)."""
-        return dict(zip(self.ESTIMATED, self.output_row()[4:12], strict=True))
+        """Current estimates of UNKNOWNS (k's 1/s^2, d's 1/s, m kg, Omega_z rad/s)."""
+        return dict(zip(UNKNOWNS, self.output_row()[4:12], strict=True))
 
     def sigmas(self) -> dict[str, float]:
-        """1-sigma of each ESTIMATED from the covariance (m by the delta method from 1/m)."""
-        return dict(zip(self.ESTIMATED, self.output_row()[12:20], strict=True))
+        """1-sigma of each of UNKNOWNS from the covariance (m by the delta method from 1/m)."""
+        return dict(zip(UNKNOWNS, self.output_row()[12:20], strict=True))
 
     def get_state(self) -> dict:
         """Everything internal as plain floats / lists (JSON-serializable)."""
         return {
             "version": _STATE_VERSION,
-            "measured_pair": self.measured_pair,
+            "measured_pair": int(self.measured_pair),
             "tuning": asdict(self.tuning),
             "wx": self.wx,
             "wy": self.wy,
@@ -581,7 +373,7 @@ class GyroStateObserver:
                 f"version {state.get('version') if isinstance(state, dict) else None!r}"
             )
         tuning = ObserverTuning(**state["tuning"])
-        n = 4 + _N_PAR + tuning.omega_order
+        n = 4 + N_PAR + tuning.omega_order
         xhat = np.array(state["xhat"], dtype=float)
         P = np.array(state["P"], dtype=float)
         if xhat.shape != (n,) or P.shape != (n, n):
@@ -590,7 +382,7 @@ class GyroStateObserver:
                 f"({n}, {n}) for omega_order={tuning.omega_order}"
             )
         self.tuning = tuning
-        self.measured_pair = int(state["measured_pair"])
+        self.measured_pair = MeasuredPair.of(int(state["measured_pair"]))
         self.order = tuning.omega_order
         self.n = n
         self._build(float(state["wx"]), float(state["wy"]),

@@ -2,10 +2,11 @@
 
 In co-simulation every input (ux, uy and Omega_z) is held constant over a
 communication step (zero-order hold). Over such a step the model of
-`parameters.system_matrix` is linear time-invariant, so the step is solved
-exactly with one matrix exponential. Plant and observer both use this module:
-a mismatch in how they treat the input between samples biases the rate
-estimate (about 0.2 rad/s for a 5e-4 input-gain mismatch; docs/observability.md).
+`system_matrix_of` (the one place the equations of motion are written) is
+linear time-invariant, so the step is solved exactly with one matrix
+exponential. Plant and observer both build their matrices with it: a mismatch
+in how they treat the input between samples biases the rate estimate
+(docs/observer-design.md).
 """
 
 from __future__ import annotations
@@ -27,6 +28,31 @@ def state_scaling(p: GyroParameters) -> np.ndarray:
     """
     w0 = math.sqrt(abs(p.kxx)) or 1.0
     return np.array([1.0, 1.0 / w0, 1.0, 1.0 / w0])
+
+
+@njit(cache=True)
+def system_matrix_of(kxx, kyy, kxy, dxx, dyy, dxy, Omega_z):  # pragma: no cover
+    """Continuous-time 4x4 matrix A of the state [x, x', y, y'] (patent eqs. 3-4).
+
+    The printed eqs. 1-5 mix up subscripts; the model implemented is the one the
+    observability matrix C1 of eq. 7 implies (k's in 1/s^2, d's in 1/s, Omega_z in rad/s):
+        x'' = -kxx x - kxy y - dxx x' - dxy y' + 2 Omega_z y' + ux/m
+        y'' = -kxy x - kyy y - dxy x' - dyy y' - 2 Omega_z x' + uy/m
+    Compiled, so that plant and observer kernels call it; parameters.system_matrix is
+    its numpy entry point.
+    """
+    A = np.zeros((4, 4))
+    A[0, 1] = 1.0
+    A[1, 0] = -kxx
+    A[1, 1] = -dxx
+    A[1, 2] = -kxy
+    A[1, 3] = 2.0 * Omega_z - dxy
+    A[2, 3] = 1.0
+    A[3, 0] = -kxy
+    A[3, 1] = -dxy - 2.0 * Omega_z
+    A[3, 2] = -kyy
+    A[3, 3] = -dyy
+    return A
 
 
 @njit(cache=True)
@@ -100,17 +126,7 @@ def _held_input_maps(kxx, kyy, kxy, dxx, dyy, dxy, m, Omega_z, h, Phi, Gamma):  
     if w0 == 0.0:
         w0 = 1.0
     T = np.array([1.0, 1.0 / w0, 1.0, 1.0 / w0])
-    A = np.zeros((4, 4))  # parameters.system_matrix(p, Omega_z)
-    A[0, 1] = 1.0
-    A[1, 0] = -kxx
-    A[1, 1] = -dxx
-    A[1, 2] = -kxy
-    A[1, 3] = 2.0 * Omega_z - dxy
-    A[2, 3] = 1.0
-    A[3, 0] = -kxy
-    A[3, 1] = -dxy - 2.0 * Omega_z
-    A[3, 2] = -kyy
-    A[3, 3] = -dyy
+    A = system_matrix_of(kxx, kyy, kxy, dxx, dyy, dxy, Omega_z)
     M = np.empty((4, 6))
     for i in range(4):
         for j in range(4):

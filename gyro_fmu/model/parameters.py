@@ -156,21 +156,15 @@ def preset(name: str = DEFAULT_PRESET, **overrides: float) -> GyroParameters:
 
 
 def system_matrix(p: GyroParameters, Omega_z: float = 0.0) -> np.ndarray:
-    """Continuous-time matrix A of state [x, vx, y, vy] (consistent form of eqs. 3-5).
+    """Continuous-time matrix A of state [x, vx, y, vy] (consistent form of eqs. 3-4).
 
-    The printed eqs. 1-5 mix up subscripts; the model implemented is the one the
-    observability matrix C1 of eq. 7 implies:
-        x'' = -kxx x - kxy y - dxx x' - dxy y' + 2 Omega_z y' + ux/m
-        y'' = -kxy x - kyy y - dxy x' - dyy y' - 2 Omega_z x' + uy/m
+    The equations are written once, in the compiled dynamics.system_matrix_of (which
+    the plant's and the observer's kernels call); this is its entry point for numpy.
     """
-    return np.array(
-        [
-            [0.0, 1.0, 0.0, 0.0],
-            [-p.kxx, -p.dxx, -p.kxy, 2.0 * Omega_z - p.dxy],
-            [0.0, 0.0, 0.0, 1.0],
-            [-p.kxy, -p.dxy - 2.0 * Omega_z, -p.kyy, -p.dyy],
-        ]
-    )
+    from .dynamics import system_matrix_of  # imported here: dynamics imports this module
+
+    return system_matrix_of(float(p.kxx), float(p.kyy), float(p.kxy), float(p.dxx),
+                            float(p.dyy), float(p.dxy), float(Omega_z))
 
 
 def max_growth_rate(p: GyroParameters, Omega_z: float = 0.0) -> float:

@@ -1,0 +1,320 @@
+"""Compiled kernels of GyroStateObserver (US 2011/0314910 A1, eqs. 5-9).
+
+- held_step: one exact held-input step of the augmented model (eq. 5) with the exact
+  sensitivities of the new state to the parameters and Omega_z.
+- correct: the measurement update of eq. 8, x^ += L (Z - C x^), L from the covariance.
+- predict: propagation of x^ and P to t + h with ux, uy and Omega_z held.
+
+The filter works in a scaled state (see docs/observer-design.md); the constant data of
+one observer are an ObserverModel, its noise settings a NoiseModel. One EKF step is
+~40 small linear-algebra operations, written as loops because numpy's per-call overhead
+would cost 120 us per step; IEEE arithmetic throughout (no fastmath).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from ..model.dynamics import inf_norm_rows, system_matrix_of
+
+N_PAR = 7  #: kxx, kyy, kxy, dxx, dyy, dxy, b = 1/m
+I_PAR = 4  #: index of the first parameter in the filter state
+I_OM = 11  #: index of Omega_z in the filter state
+KMAX = 24  #: most Taylor terms (||A h|| <= 0.5 needs 18)
+_STEP_NORM = 0.5  # longer steps are split into equal sub-steps
+_J = np.arange(KMAX)
+_FACT = np.array([math.factorial(k) for k in range(2 * KMAX + 2)], dtype=float)
+#: BETA[j, m] = j! m! / (j + m + 1)!: weights of the Frechet series of expm.
+BETA = _FACT[_J][:, None] * _FACT[_J][None, :] / _FACT[_J[:, None] + _J[None, :] + 1]
+
+
+class ObserverModel(NamedTuple):
+    """Constant data of one observer and its scratch arrays (built by GyroStateObserver).
+
+    Filter state x = [x, vx/wx, y, vy/wy, p (7), Omega_z, its derivatives]; the
+    parameters are theta = theta0 + scale p with theta = [kxx, kyy, kxy, dxx, dyy, dxy, 1/m].
+    """
+
+    theta0: np.ndarray  #: initial guess of theta (1/s^2, 1/s, 1/kg)
+    scale: np.ndarray  #: scale of each parameter deviation (units of theta)
+    wx: float  #: sqrt(kxx_0), rad/s: vx is scaled by 1/wx
+    wy: float  #: sqrt(kyy_0), rad/s: vy is scaled by 1/wy
+    i0: int  #: filter-state row of z1 (0: positions x, y; 1: velocities); z2 is row i0 + 2
+    hgain: np.ndarray  #: z = hgain * (x[i0], x[i0 + 2]): [1, 1] or [wx, wy]
+    A: np.ndarray  #: 5x5 scratch: A_aug of [s, 1] in the filter's scaling
+    MgT: np.ndarray  #: 5x16 d(A_aug xi)/d(p, Omega_z) rows 1 and 3; [4, 6], [4, 14] per step
+    stack: np.ndarray  #: KMAX x 5 x 5 scratch, stack[0] = I: Taylor powers (A h)^j / j!
+    G: np.ndarray  #: KMAX x 16 scratch of the Frechet series
+    Gb: np.ndarray  #: KMAX x 16 scratch of the Frechet series
+
+
+class NoiseModel(NamedTuple):
+    """Measurement-noise settings (ObserverTuning): absolute stds, or relative mode."""
+
+    sigma_z1: float  #: > 0: std of z1; else relative mode
+    sigma_z2: float  #: > 0: std of z2; else relative mode
+    noise_rel: float  #: relative mode: std = noise_rel x running peak |z|
+    innov_floor: float  #: relative mode: R >= innov_floor x EWMA(innovation^2)
+    innov_tau: float  #: time constant of that EWMA, s
+    joseph: bool  #: Joseph-form covariance update
+
+
+@njit(cache=True)
+def _n_terms(norm: float) -> int:
+    """Taylor terms K with norm^K / K! < 1e-15 (norm = ||A h||_inf <= 0.5)."""
+    term = 1.0
+    for k in range(1, KMAX):
+        term *= norm / k
+        if term < 1e-15:
+            return k + 1
+    return KMAX
+
+
+@njit(cache=True)
+def _held_step_single(xi0, Ah, h, MgT, beta, st, G, Gb, s1, Phi, S):  # pragma: no cover
+    """Taylor powers st[j] = (A h)^j / j!, their sum, and the Frechet series S."""
+    norm = inf_norm_rows(Ah, 4, 5)
+    K = _n_terms(norm)
+    for j in range(K - 1):
+        inv = 1.0 / (j + 1)
+        for a in range(5):
+            for c in range(5):
+                acc = 0.0
+                for b in range(5):
+                    acc += st[j, a, b] * (Ah[b, c] * inv)
+                st[j + 1, a, c] = acc
+    for i in range(4):
+        for c in range(4):
+            acc = 0.0
+            for j in range(K):
+                acc += st[j, i, c]
+            Phi[i, c] = acc
+        acc = 0.0
+        for c in range(5):
+            e = 0.0
+            for j in range(K):
+                e += st[j, i, c]
+            acc += e * xi0[c]
+        s1[i] = acc
+    # G[m] = (T_m xi0) MgT: rows 1 and 3 of dA/d(p, Omega) (T_m xi0)
+    for m in range(K):
+        for q in range(16):
+            G[m, q] = 0.0
+        for a in range(5):
+            txi = 0.0
+            for b in range(5):
+                txi += st[m, a, b] * xi0[b]
+            for q in range(16):
+                G[m, q] += txi * MgT[a, q]
+    for j in range(K):
+        for q in range(16):
+            acc = 0.0
+            for m in range(K):
+                acc += beta[j, m] * G[m, q]
+            Gb[j, q] = acc
+    for i in range(4):
+        for q in range(8):
+            acc = 0.0
+            for j in range(K):
+                acc += st[j, i, 1] * Gb[j, q] + st[j, i, 3] * Gb[j, 8 + q]
+            S[i, q] = acc * h
+
+
+@njit(cache=True)
+def _held_step_split(xi0, Ah, h, MgT, beta, st, G, Gb, s1, Phi, S):  # pragma: no cover
+    """_held_step_single, with steps of ||A h|| > 0.5 in equal sub-steps (Jacobians chained)."""
+    norm = inf_norm_rows(Ah, 4, 5)
+    if norm <= _STEP_NORM:
+        _held_step_single(xi0, Ah, h, MgT, beta, st, G, Gb, s1, Phi, S)
+        return
+    nsub = math.ceil(norm / _STEP_NORM)
+    Ahs = Ah / nsub
+    xi = xi0.copy()
+    Phi_t = np.eye(4)
+    S_t = np.zeros((4, 8))
+    Phi1 = np.empty((4, 4))
+    S1 = np.empty((4, 8))
+    s_1 = np.empty(4)
+    for _ in range(nsub):
+        _held_step_single(xi, Ahs, h / nsub, MgT, beta, st, G, Gb, s_1, Phi1, S1)
+        S_t = Phi1 @ S_t + S1
+        Phi_t = Phi1 @ Phi_t
+        xi[:4] = s_1
+    s1[:] = xi[:4]
+    Phi[:, :] = Phi_t
+    S[:, :] = S_t
+
+
+@njit(cache=True)
+def held_step(model, theta, Omega_z, s, ux, uy, h):  # pragma: no cover
+    """One exact held-input step of the scaled plant state s (eq. 5, as the plant steps).
+
+    theta = [kxx, kyy, kxy, dxx, dyy, dxy, 1/m], Omega_z, ux, uy held over h. Returns
+    (s(t+h), Phi = ds(t+h)/ds, S = ds(t+h)/d(p, Omega_z)), 4, 4x4 and 4x8, in the
+    filter's scaling. From the Taylor powers T_j = (A h)^j / j! of A_aug (the system
+    matrix with the input column) Phi_aug = sum T_j = expm(A_aug h), and S is the
+    Frechet series h sum_{j,m} j! m! / (j+m+1)! T_j G(T_m xi0) with xi0 = [s, 1].
+    """
+    wx = model.wx
+    wy = model.wy
+    b = theta[6]
+    Ap = system_matrix_of(theta[0], theta[1], theta[2], theta[3], theta[4], theta[5], Omega_z)
+    A = model.A  # rows 0 and 2 ([0, 1] = wx, [2, 3] = wy) are constant
+    A[1, 0] = Ap[1, 0] / wx
+    A[1, 1] = Ap[1, 1]
+    A[1, 2] = Ap[1, 2] / wx
+    A[1, 3] = Ap[1, 3] * wy / wx
+    A[1, 4] = b * ux / wx
+    A[3, 0] = Ap[3, 0] / wy
+    A[3, 1] = Ap[3, 1] * wx / wy
+    A[3, 2] = Ap[3, 2] / wy
+    A[3, 3] = Ap[3, 3]
+    A[3, 4] = b * uy / wy
+    MgT = model.MgT
+    MgT[4, 6] = model.scale[6] * ux / wx
+    MgT[4, 14] = model.scale[6] * uy / wy
+    xi0 = np.ones(5)
+    xi0[:4] = s
+    s1 = np.empty(4)
+    Phi = np.empty((4, 4))
+    S = np.empty((4, 8))
+    _held_step_split(xi0, A * h, h, MgT, BETA, model.stack, model.G, model.Gb, s1, Phi, S)
+    return s1, Phi, S
+
+
+@njit(cache=True)
+def _rel_R(nu2, j, nu, peak, h, noise_rel, innov_floor, innov_tau):  # pragma: no cover
+    """Relative-mode noise variance: (noise_rel peak)^2, floored by the innovations."""
+    v2 = nu * nu
+    e = nu2[j]
+    e = v2 if e < 0.0 else e + min(h / innov_tau, 1.0) * (v2 - e)
+    nu2[j] = e
+    return max((noise_rel * peak) ** 2, innov_floor * e)
+
+
+@njit(cache=True)
+def correct(model, noise, x, P, peak, nu2, z1, z2, h):  # pragma: no cover
+    """Measurement update (eq. 8) of x, P in place with the measured pair (z1, z2) at t.
+
+    peak (running |z|) and nu2 (innovation EWMA, < 0 before the first) are updated for
+    the relative noise mode; h (s) is the step that follows, the EWMA's time base.
+    """
+    n = x.shape[0]
+    i0 = model.i0
+    i1 = i0 + 2
+    g0 = model.hgain[0]
+    g1 = model.hgain[1]
+    nu0 = z1 - g0 * x[i0]
+    nu1 = z2 - g1 * x[i1]
+    if abs(z1) > peak[0]:
+        peak[0] = abs(z1)
+    if abs(z2) > peak[1]:
+        peak[1] = abs(z2)
+    if noise.sigma_z1 > 0.0:
+        R0 = noise.sigma_z1 * noise.sigma_z1
+    else:
+        R0 = _rel_R(nu2, 0, nu0, peak[0], h, noise.noise_rel, noise.innov_floor,
+                    noise.innov_tau)
+    if noise.sigma_z2 > 0.0:
+        R1 = noise.sigma_z2 * noise.sigma_z2
+    else:
+        R1 = _rel_R(nu2, 1, nu1, peak[1], h, noise.noise_rel, noise.innov_floor,
+                    noise.innov_tau)
+    a = P[i0, i0] * g0 * g0 + R0
+    b_ = P[i0, i1] * g0 * g1
+    c = P[i1, i0] * g0 * g1
+    d = P[i1, i1] * g1 * g1 + R1
+    det = a * d - b_ * c
+    if not (det > 0.0 and a > 0.0):
+        return
+    s00, s01, s10, s11 = d / det, -b_ / det, -c / det, a / det
+    PHt = np.empty((n, 2))
+    K = np.empty((n, 2))
+    for i in range(n):
+        PHt[i, 0] = P[i, i0] * g0
+        PHt[i, 1] = P[i, i1] * g1
+    for i in range(n):
+        K[i, 0] = PHt[i, 0] * s00 + PHt[i, 1] * s10
+        K[i, 1] = PHt[i, 0] * s01 + PHt[i, 1] * s11
+        x[i] = x[i] + (K[i, 0] * nu0 + K[i, 1] * nu1)
+    if noise.joseph:
+        IKH = np.eye(n)
+        for i in range(n):
+            IKH[i, i0] -= K[i, 0] * g0
+            IKH[i, i1] -= K[i, 1] * g1
+        KR = np.empty((n, 2))
+        for i in range(n):
+            KR[i, 0] = K[i, 0] * R0
+            KR[i, 1] = K[i, 1] * R1
+        P[:, :] = IKH @ P @ IKH.T + KR @ K.T
+    else:
+        for i in range(n):
+            for j in range(n):
+                P[i, j] -= K[i, 0] * PHt[j, 0] + K[i, 1] * PHt[j, 1]
+
+
+@njit(cache=True)
+def predict(model, x, P, F, Q, ux, uy, h):  # pragma: no cover
+    """Propagate x, P in place to t + h (eq. 5) with ux, uy and Omega_z held.
+
+    F (n x n) holds the Omega-model transition of this h and receives the step's
+    Jacobian; Q is the process noise of h (both from GyroStateObserver).
+    """
+    n = x.shape[0]
+    theta = np.empty(N_PAR)
+    for i in range(N_PAR):
+        theta[i] = model.theta0[i] + model.scale[i] * x[I_PAR + i]
+    s1, Phi, S = held_step(model, theta, x[I_OM], x[:4], ux, uy, h)
+    for i in range(4):
+        for j in range(4):
+            F[i, j] = Phi[i, j]
+        for j in range(8):
+            F[i, 4 + j] = S[i, j]
+    x_new = np.empty(n)
+    for i in range(n):
+        acc = 0.0
+        for j in range(n):
+            acc += F[i, j] * x[j]
+        x_new[i] = acc
+    x_new[:4] = s1
+    x[:] = x_new
+    FP = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += F[i, k] * P[k, j]
+            FP[i, j] = acc
+    Pn = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += FP[i, k] * F[j, k]
+            Pn[i, j] = acc + Q[i, j]
+    for i in range(n):  # P = F P F' + Q, symmetrized
+        for j in range(n):
+            P[i, j] = (Pn[i, j] + Pn[j, i]) * 0.5
+
+
+@njit(cache=True)
+def output_row(theta0, scale, x, P, Tdiag, out):  # pragma: no cover
+    """out = [x, vx, y, vy], UNKNOWNS, their 1-sigmas (m by the delta method from 1/m).
+
+    theta0, scale as in ObserverModel; Tdiag = [1, 1/wx, 1, 1/wy] unscales the state.
+    """
+    for i in range(4):
+        out[i] = x[i] / Tdiag[i]
+    out[4] = x[I_OM]
+    for i in range(6):
+        out[5 + i] = theta0[i] + scale[i] * x[I_PAR + i]
+    b = theta0[6] + scale[6] * x[I_PAR + 6]
+    out[11] = 1.0 / b
+    out[12] = math.sqrt(max(P[I_OM, I_OM], 0.0))
+    for i in range(6):
+        out[13 + i] = math.sqrt(max(P[I_PAR + i, I_PAR + i], 0.0)) * scale[i]
+    out[19] = math.sqrt(max(P[I_PAR + 6, I_PAR + 6], 0.0)) * scale[6] / (b * b)
