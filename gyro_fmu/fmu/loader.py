@@ -15,22 +15,21 @@ and PYTHONFMU_LIBPYTHON, override the record. docs/fmi-notes.md has the measurem
 
 from __future__ import annotations
 
+import functools
 import os
 import shutil
-import site
 import subprocess
 import sys
-import sysconfig
 import tempfile
 import zipfile
 from importlib.util import find_spec
 from pathlib import Path
 from xml.etree import ElementTree
 
+from .python_env import REQUIRED_MODULES, find_libpython, python_home, required_paths
+
 LOADER_SOURCE = Path(__file__).resolve().parent / "python_loader.c"
 ENV_FILE = "resources/python_env.txt"
-#: Modules the shipped gyro_fmu imports that are not inside the FMU.
-MODULES = ("numpy", "scipy", "numba", "llvmlite")
 MARKER = b"@(#)pythonfmu-shim"
 
 
@@ -42,23 +41,48 @@ def real_binary_name(model_identifier: str) -> str:
     return f"binaries/linux64/{model_identifier}_pythonfmu.so"
 
 
-def fmi2_headers() -> Path:
-    """fmpy's copy of the FMI 2.0 headers."""
+def find_compiler() -> str | None:
+    """The system C compiler: $CC, then cc, gcc, clang."""
+    for name in (os.environ.get("CC"), "cc", "gcc", "clang"):
+        if name:
+            path = shutil.which(name)
+            if path:
+                return path
+    return None
+
+
+def fmi2_header_dir() -> Path | None:
+    """The folder of fmi2FunctionTypes.h that fmpy ships (fmpy/c-code), if any."""
     spec = find_spec("fmpy")
-    folder = Path(spec.origin).parent / "c-code" if spec and spec.origin else None
-    if folder is None or not (folder / "fmi2Functions.h").is_file():
-        raise LoaderUnavailableError("fmpy's FMI 2.0 headers (fmpy/c-code) are missing")
-    return folder
+    if spec is None or not spec.origin:
+        return None
+    folder = Path(spec.origin).parent / "c-code"
+    return folder if (folder / "fmi2FunctionTypes.h").is_file() else None
+
+
+def loader_binary() -> bytes:
+    """The compiled loader, compiled once per process and version of its source."""
+    stat = LOADER_SOURCE.stat()
+    return _loader_binary(stat.st_mtime_ns, stat.st_size)
+
+
+@functools.lru_cache(maxsize=1)
+def _loader_binary(mtime_ns: int, size: int) -> bytes:
+    with tempfile.TemporaryDirectory() as tmp:
+        return compile_loader(Path(tmp)).read_bytes()
 
 
 def compile_loader(dest_dir: Path) -> Path:
     """The loader compiled into dest_dir (references only GLIBC_2.2.5/2.3 symbols)."""
-    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+    cc = find_compiler()
     if not cc:
-        raise LoaderUnavailableError("no C compiler (cc, gcc or $CC)")
+        raise LoaderUnavailableError("no C compiler (cc, gcc, clang or $CC)")
+    headers = fmi2_header_dir()
+    if headers is None:
+        raise LoaderUnavailableError("fmpy's FMI 2.0 headers (fmpy/c-code) are missing")
     out = Path(dest_dir) / "python_loader.so"
     base = [cc, "-std=c99", "-shared", "-fPIC", "-O2", "-fvisibility=hidden",
-            "-U_FORTIFY_SOURCE", "-fno-stack-protector", f"-I{fmi2_headers()}",
+            "-U_FORTIFY_SOURCE", "-fno-stack-protector", f"-I{headers}",
             "-o", str(out), str(LOADER_SOURCE)]
     errors = ""
     # libdl.so.2 as NEEDED so that dlopen resolves on glibc < 2.34 too
@@ -70,39 +94,21 @@ def compile_loader(dest_dir: Path) -> Path:
     raise LoaderUnavailableError(f"compiling {LOADER_SOURCE.name} failed:\n{errors}")
 
 
-def libpython() -> Path:
-    """This interpreter's shared libpython."""
-    cfg = sysconfig.get_config_var
-    for name in (cfg("INSTSONAME"), cfg("LDLIBRARY")):
-        for folder in (cfg("LIBDIR"), Path(sys.base_prefix) / "lib"):
-            path = Path(folder or "", name or "")
-            if name and folder and ".so" in name and path.is_file():
-                return path.resolve()
-    raise LoaderUnavailableError("no shared libpython (a Python built without --enable-shared)")
-
-
-def python_paths() -> list[str]:
-    """Folders the embedded interpreter needs: site-packages and the module folders."""
-    paths = [p for p in site.getsitepackages() if Path(p).is_dir()]
-    for name in MODULES:
-        spec = find_spec(name)
-        if spec and spec.origin:
-            origin = Path(spec.origin).resolve()
-            paths.append(str(origin.parent.parent if origin.name == "__init__.py"
-                             else origin.parent))
-    return list(dict.fromkeys(str(Path(p).resolve()) for p in paths))
-
-
 def python_env_text() -> str:
     """resources/python_env.txt for this interpreter: key=value lines."""
-    home = sys.base_prefix
+    lib = find_libpython()
+    if lib.path is None:
+        raise LoaderUnavailableError(lib.note)
+    folders, missing = required_paths(REQUIRED_MODULES)
+    if missing:
+        raise LoaderUnavailableError(f"{', '.join(missing)} not importable here")
     lines = ["# The Python this FMU was built with (gyro_fmu/fmu/loader.py).",
              "# Overrides: PYTHONFMU_LIBPYTHON, PYTHONHOME (kept if set), PYTHONPATH (prepended).",
              f"python_version={sys.version_info.major}.{sys.version_info.minor}",
              f"python_executable={sys.executable}",
-             f"libpython={libpython()}",
-             f"pythonhome={home}"]
-    lines += [f"pythonpath={p}" for p in python_paths()]
+             f"libpython={lib.path}",
+             f"pythonhome={python_home()}"]
+    lines += [f"pythonpath={p}" for p in folders]
     return "\n".join(lines) + "\n"
 
 
@@ -125,8 +131,8 @@ def install_loader(fmu: Path) -> None:
     """Put the loader in front of pythonfmu's binary in `fmu` (in place, atomically)."""
     fmu = Path(fmu)
     text = python_env_text()
-    with tempfile.TemporaryDirectory() as tmp, zipfile.ZipFile(fmu) as z:
-        loader = compile_loader(Path(tmp)).read_bytes()
+    loader = loader_binary()
+    with zipfile.ZipFile(fmu) as z:
         ident = ElementTree.fromstring(z.read("modelDescription.xml")).find(
             "CoSimulation").get("modelIdentifier")
         front, real = f"binaries/linux64/{ident}.so", real_binary_name(ident)
@@ -134,17 +140,22 @@ def install_loader(fmu: Path) -> None:
         if MARKER in binary:  # already has a loader: keep the real binary it has
             binary = z.read(real)
         stamp = z.getinfo(front).date_time
-        fd, name = tempfile.mkstemp(suffix=".fmu", dir=fmu.parent)  # same file system
+        fd, temp = tempfile.mkstemp(suffix=".fmu", dir=fmu.parent)  # same file system
         os.close(fd)
-        rewritten = Path(name)
-        with zipfile.ZipFile(rewritten, "w", zipfile.ZIP_DEFLATED) as w:
-            for info in z.infolist():
-                if info.filename not in (front, real, ENV_FILE):
-                    w.writestr(info, z.read(info.filename))
-            for name, data, mode in ((real, binary, 0o755), (front, loader, 0o755),
-                                     (ENV_FILE, text.encode(), 0o644)):
-                info = zipfile.ZipInfo(name, date_time=stamp)
-                info.external_attr = (0o100000 | mode) << 16
-                info.compress_type = zipfile.ZIP_DEFLATED
-                w.writestr(info, data)
-        os.replace(rewritten, fmu)
+        rewritten = Path(temp)
+        try:
+            with zipfile.ZipFile(rewritten, "w", zipfile.ZIP_DEFLATED) as w:
+                for info in z.infolist():
+                    if info.filename not in (front, real, ENV_FILE):
+                        w.writestr(info, z.read(info.filename))
+                for member, data, mode in ((real, binary, 0o755), (front, loader, 0o755),
+                                           (ENV_FILE, text.encode(), 0o644)):
+                    info = zipfile.ZipInfo(member, date_time=stamp)
+                    info.external_attr = (0o100000 | mode) << 16
+                    info.compress_type = zipfile.ZIP_DEFLATED
+                    w.writestr(info, data)
+        except BaseException:
+            rewritten.unlink(missing_ok=True)
+            raise
+    shutil.copymode(fmu, rewritten)  # mkstemp made it private
+    os.replace(rewritten, fmu)
