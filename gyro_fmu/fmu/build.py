@@ -171,12 +171,24 @@ def _ship_all_kernels(paths: list[Path]) -> list[Path]:
     FMUs built first without the later ones' caches (a fresh build: only
     GyroObserver.fmu had the observer's). A non-Python host imports gyro_fmu from
     whichever FMU it loads first, so every FMU must carry every cache. After all
-    reference runs the tree holds them all; add_to_fmu adds only what is missing.
+    reference runs the tree holds them all. An FMU that lacks some is completed in a
+    copy moved into place whole (another process may be reading it); one that has them
+    all is not touched.
     """
-    from .kernel_cache import add_to_fmu
+    from .kernel_cache import add_to_fmu, missing_from
 
     for path in paths:
-        add_to_fmu(path, PACKAGE_DIR)
+        if not missing_from(path, PACKAGE_DIR):
+            continue
+        fd, temp = tempfile.mkstemp(suffix=".fmu", dir=path.parent)
+        os.close(fd)
+        try:
+            shutil.copy2(path, temp)
+            add_to_fmu(Path(temp), PACKAGE_DIR)
+        except BaseException:
+            Path(temp).unlink(missing_ok=True)
+            raise
+        os.replace(temp, path)
     return paths
 
 

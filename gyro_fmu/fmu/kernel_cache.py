@@ -69,13 +69,21 @@ def current_cache_files(package_dir: Path) -> list[Path]:
     return files
 
 
-def add_to_fmu(fmu: Path, package_dir: Path, prefix: str = "resources/gyro_fmu") -> int:
-    """Append the current cache files to the FMU beside the sources; returns how many."""
-    files = current_cache_files(package_dir)
-    with zipfile.ZipFile(fmu, "a", zipfile.ZIP_DEFLATED) as z:
+def missing_from(fmu: Path, package_dir: Path,
+                 prefix: str = "resources/gyro_fmu") -> dict[str, Path]:
+    """The current cache files the FMU does not carry yet, by their name in the archive."""
+    files = {f"{prefix}/{f.relative_to(package_dir).as_posix()}": f
+             for f in current_cache_files(package_dir)}
+    with zipfile.ZipFile(fmu) as z:
         present = set(z.namelist())
-        added = [f for f in files
-                 if f"{prefix}/{f.relative_to(package_dir).as_posix()}" not in present]
-        for f in added:
-            z.write(f, f"{prefix}/{f.relative_to(package_dir).as_posix()}")
+    return {name: f for name, f in files.items() if name not in present}
+
+
+def add_to_fmu(fmu: Path, package_dir: Path, prefix: str = "resources/gyro_fmu") -> int:
+    """Append the current cache files to the FMU beside the sources; returns how many.
+    Appends in place: for an FMU nobody may be reading (one being built)."""
+    added = missing_from(fmu, package_dir, prefix)
+    with zipfile.ZipFile(fmu, "a", zipfile.ZIP_DEFLATED) as z:
+        for name, f in added.items():
+            z.write(f, name)
     return len(added)
