@@ -53,10 +53,6 @@ def tolerances(params: GyroParameters, Omega_z: float) -> np.ndarray:
     return np.array([tolerance(n, np.array([values[n]])) for n in UNKNOWNS])
 
 
-def _crb_from_fisher(F: np.ndarray, scales: np.ndarray) -> np.ndarray:
-    return fisher.standard_deviations_from_fisher(F) * scales
-
-
 def crb(
     params: GyroParameters,
     drive: TwoToneDrive | Sequence[tuple[float, float]],
@@ -72,7 +68,7 @@ def crb(
     z, dz, scales = window_jacobian(params, drive, Omega_z, measured_pair, window, h, start)
     std = _std(z, noise, noise_kind)
     J = (dz / std[None, :, None]).reshape(-1, dz.shape[2])
-    sig = _crb_from_fisher(J.T @ J, scales)
+    sig = fisher.standard_deviations_from_fisher(J.T @ J) * scales
     return dict(zip(UNKNOWNS, (float(v) for v in sig), strict=True))
 
 
@@ -192,7 +188,7 @@ def design_drive(
                 std = _std(a * Z[i] + b * Z[j], noise, noise_kind)
                 F = sum((a * a * G[c, i, i] + b * b * G[c, j, j]
                          + a * b * (G[c, i, j] + G[c, j, i])) / std[c] ** 2 for c in range(2))
-                sigma[i, j, s] = _crb_from_fisher(F, scales)
+                sigma[i, j, s] = fisher.standard_deviations_from_fisher(F) * scales
     objective = np.einsum("ijsk,k->ijs", np.nan_to_num(sigma, nan=np.inf, posinf=np.inf), w)
     objective[np.arange(n), np.arange(n), :] = np.nan
     return DriveDesign(freqs, splits_a, sigma, objective, weights, float(force_limit), noise,

@@ -38,28 +38,31 @@ def _unidentifiable(null_directions: np.ndarray, n: int) -> np.ndarray:
     return np.sum(null_directions**2, axis=1) > _NULL_COMPONENT
 
 
-def covariance(J: np.ndarray, rtol: float = RTOL) -> np.ndarray:
-    """F^-1 = (J^T J)^-1 restricted to the identifiable subspace; rows and columns of
-    unidentifiable unknowns are inf."""
+def _decomposition(J: np.ndarray, rtol: float):
+    """(column norms, singular values, right singular vectors, which are identifiable,
+    which unknowns are not identifiable) of the equilibrated J."""
     Jn, norms = equilibrated(J)
     _, sv, Vt = np.linalg.svd(Jn, full_matrices=False)
     keep = sv > rtol * sv[0]
+    return norms, sv, Vt, keep, _unidentifiable(Vt[~keep].T, J.shape[1])
+
+
+def covariance(J: np.ndarray, rtol: float = RTOL) -> np.ndarray:
+    """F^-1 = (J^T J)^-1 restricted to the identifiable subspace; rows and columns of
+    unidentifiable unknowns are inf."""
+    norms, sv, Vt, keep, null = _decomposition(J, rtol)
     V = Vt[keep].T
     cov = (V / sv[keep] ** 2) @ V.T
     cov = cov / norms[:, None] / norms[None, :]
-    null = _unidentifiable(Vt[~keep].T, J.shape[1])
     cov[null, :] = cov[:, null] = math.inf
     return cov
 
 
 def standard_deviations(J: np.ndarray, rtol: float = RTOL) -> np.ndarray:
     """sqrt(diag F^-1) per column of J (inf where unidentifiable)."""
-    Jn, norms = equilibrated(J)
-    _, sv, Vt = np.linalg.svd(Jn, full_matrices=False)
-    keep = sv > rtol * sv[0]
+    norms, sv, Vt, keep, null = _decomposition(J, rtol)
     var = (Vt[keep].T ** 2) @ (1.0 / sv[keep] ** 2)
-    sig = np.sqrt(var) / norms
-    return np.where(_unidentifiable(Vt[~keep].T, J.shape[1]), math.inf, sig)
+    return np.where(null, math.inf, np.sqrt(var) / norms)
 
 
 def standard_deviations_from_fisher(F: np.ndarray, rtol: float = RTOL) -> np.ndarray:
