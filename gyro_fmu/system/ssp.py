@@ -260,7 +260,7 @@ def _package_for_libcosim(ssp_path: Path, step: float, work: Path) -> Path:
     return dest
 
 
-def _package_settings(ssp_path: Path) -> tuple[float | None, float | None]:
+def package_settings(ssp_path: Path) -> tuple[float | None, float | None]:
     """(stopTime, baseStepSize) written in the package, None where absent."""
     with zipfile.ZipFile(ssp_path) as z:
         root = ET.fromstring(z.read("SystemStructure.ssd"))
@@ -292,7 +292,7 @@ def _last_error() -> str:
 
 
 @contextmanager
-def _single_threaded_blas() -> Iterator[None]:
+def single_threaded_blas() -> Iterator[None]:
     """OpenBLAS on one thread while libcosim runs the FMUs.
 
     libcosim calls the FMUs from its worker thread, not Python's main thread; with
@@ -349,7 +349,7 @@ def run_ssp_libcosim(
     ssp_path = Path(ssp_path)
     if not ssp_path.exists():
         raise SSPError(f"SSP package {ssp_path} not found: write it with `write_ssp`")
-    package_stop, package_step = _package_settings(ssp_path)
+    package_stop, package_step = package_settings(ssp_path)
     stop_time = package_stop if stop_time is None else stop_time
     step = package_step if step is None else step
     if stop_time is None or step is None:
@@ -362,7 +362,7 @@ def run_ssp_libcosim(
         raise SSPError(f"stop_time {stop_time} s is shorter than one step of {step} s")
 
     log_output_level(CosimLogLevel.WARNING)
-    with tempfile.TemporaryDirectory(prefix="gyro_ssp_") as tmp, _single_threaded_blas():
+    with tempfile.TemporaryDirectory(prefix="gyro_ssp_") as tmp, single_threaded_blas():
         package = _package_for_libcosim(ssp_path, step_ns / _NS, Path(tmp))
         try:
             execution = CosimExecution.from_ssp_file(str(package))
