@@ -119,6 +119,22 @@ def test_bad_input_is_refused_with_a_message_and_never_crashes(models_dir, name,
     assert_bad_input_refused(models_dir / f"{name}.fmu", params, action, message, H)
 
 
+@pytest.mark.parametrize(("name", "params"), [(r[0], r[1]) for r in BAD_INPUTS
+                                              if r[2][0] == "init"],
+                         ids=[f"{r[0]}-{r[3][:20]}" for r in BAD_INPUTS if r[2][0] == "init"])
+def test_a_host_that_ignores_discard_reads_no_plausible_number(models_dir, name, params):
+    """After a refused initialization or parameter every Real output is NaN, at once and
+    after any number of (discarded) steps: never the zeros of before initialization."""
+    inst = Instance(models_dir / f"{name}.fmu", "failed", params)
+    outputs = [v for v, x in inst.vars.items() if x.causality == "output" and x.type == "Real"]
+    assert all(math.isnan(v) for v in inst.get(outputs)), inst.get(outputs)
+    for _ in range(3):
+        assert inst.step(H) == 2
+        inst.t += H  # a careless host goes on in time
+    assert all(math.isnan(v) for v in inst.get(outputs))
+    inst.close()
+
+
 def test_many_instances_in_one_process_are_independent(models_dir):
     """Two plants and two observers with different parameters, interleaved step by step."""
     p1, p2 = preset(), preset(kxy=3e7, dxy=5.0)

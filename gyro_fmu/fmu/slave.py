@@ -191,6 +191,9 @@ class GyroSlave(Fmi2Slave):
         self.start_time = self.time = start_time
 
     def exit_initialization_mode(self) -> None:
+        if self.failed is not None:  # a refused parameter: do not set up on the kept value
+            self._outputs_not_a_number()
+            return
         try:
             problems = [p for v in self.VARIABLES if v.is_parameter
                         and (p := v.range_problem(getattr(self, v.name)))]
@@ -274,6 +277,7 @@ class GyroSlave(Fmi2Slave):
                 message = f"{self.modelName}: {exc}"
                 if spec_is_parameter(self, vr) and not self.initialized:
                     self.failed = f"refused parameter value: {exc}"
+                    self._outputs_not_a_number()
                 else:
                     self.pending_error = str(exc)
                 self.log(message, Fmi2Status.error)
@@ -328,6 +332,17 @@ class GyroSlave(Fmi2Slave):
         self.failed = f"{where} failed: {exc}"
         self.log(f"{self.modelName}: {self.failed}", Fmi2Status.error)
         self._log_traceback()
+        self._outputs_not_a_number()
+
+    def _outputs_not_a_number(self) -> None:
+        """Every Real output NaN once the FMU cannot step at all (initialization, a
+        parameter or a state restore refused): a host that ignores fmi2Discard and the
+        error log must not read its outputs (the zeros of before initialization) as
+        plausible values. A recoverable refusal (a bad input) keeps the outputs of the
+        last good step, since the state is kept and the next step goes on."""
+        for v in self.VARIABLES:
+            if v.causality == "output" and not v.integer:
+                setattr(self, v.name, math.nan)
 
     def _log_traceback(self) -> None:
         self.log(traceback.format_exc(), Fmi2Status.ok, category=DEBUG_CATEGORY)
