@@ -65,6 +65,8 @@ def test_the_container_exposes_parameters_and_outputs_with_units(container, mode
         assert variables[name].causality == "output", name
     assert variables["kxy"].unit == "1/s2" and variables["Omega_hat"].unit == "rad/s"
     assert set(exposed_names(models_dir).values()) <= set(variables)
+    unitless = [v.name for v in md.modelVariables if v.type == "Real" and not v.unit]
+    assert not unitless  # time and the internal links too (twotonedrive.ux, ...)
 
 
 def test_the_container_runs_like_the_master(container, models_dir):

@@ -175,3 +175,22 @@ def test_kernel_caches_older_than_any_kernel_source_are_neither_shipped_nor_kept
     os.utime(callee, ns=(4_000 * 10**9, 4_000 * 10**9))  # the callee edited after compiling
     assert current_cache_files(pkg) == []
     assert drop_suspect_caches(pkg) == 2 and not index.exists() and not data.exists()
+
+
+def test_every_fmu_ships_every_kernel(models_dir: Path) -> None:
+    """A multi-FMU host imports gyro_fmu from whichever FMU it loads first: each must
+    carry the compiled kernels of all (the ecos CLI compiled the observer in every
+    process, 14.8 s for 10 ms, when the first FMU lacked them; benchmarks/engines.py)."""
+    import zipfile
+
+    from gyro_fmu.fmu.build import FMU_NAMES
+
+    caches = {}
+    for name in FMU_NAMES:
+        with zipfile.ZipFile(models_dir / f"{name}.fmu") as z:
+            caches[name] = {n for n in z.namelist() if n.endswith((".nbi", ".nbc"))}
+    first = caches[FMU_NAMES[0]]
+    assert any("observer" in n and "_ekf_step" in n for n in first), sorted(first)
+    assert any("dynamics" in n for n in first) and any("loops" in n for n in first)
+    for name, names in caches.items():
+        assert names == first, (name, sorted(first ^ names)[:5])
