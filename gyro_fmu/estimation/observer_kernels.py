@@ -282,23 +282,23 @@ def predict(model, x, P, F, Q, ux, uy, h):  # pragma: no cover
         x_new[i] = acc
     x_new[:4] = s1
     x[:] = x_new
-    FP = np.empty((n, n))
-    for i in range(n):
-        for j in range(n):
-            acc = 0.0
-            for k in range(n):
-                acc += F[i, k] * P[k, j]
-            FP[i, j] = acc
-    Pn = np.empty((n, n))
-    for i in range(n):
-        for j in range(n):
-            acc = 0.0
-            for k in range(n):
-                acc += FP[i, k] * F[j, k]
-            Pn[i, j] = acc + Q[i, j]
+    FPFt = _matmul(_matmul(F, P), F.T)
     for i in range(n):  # P = F P F' + Q, symmetrized
         for j in range(n):
-            P[i, j] = (Pn[i, j] + Pn[j, i]) * 0.5
+            P[i, j] = ((FPFt[i, j] + Q[i, j]) + (FPFt[j, i] + Q[j, i])) * 0.5
+
+
+@njit(cache=True)
+def _matmul(A, B):  # pragma: no cover
+    """A B, summed in the order k = 0, 1, ... (no BLAS: fixed rounding, small n)."""
+    out = np.empty((A.shape[0], B.shape[1]))
+    for i in range(A.shape[0]):
+        for j in range(B.shape[1]):
+            acc = 0.0
+            for k in range(A.shape[1]):
+                acc += A[i, k] * B[k, j]
+            out[i, j] = acc
+    return out
 
 
 @njit(cache=True)
