@@ -78,13 +78,7 @@ def run_ssp_ecos(
     run on their own defaults, which Ecos does not report).
     """
     ssp_path = Path(ssp_path)
-    if not ssp_path.exists():
-        raise SSPError(f"SSP package {ssp_path} not found: write it with `write_ssp`")
-    package_stop, package_step = package_settings(ssp_path)
-    stop_time = package_stop if stop_time is None else stop_time
-    step = package_step if step is None else step
-    if stop_time is None or step is None or not step > 0:
-        raise SSPError(f"{ssp_path}: give stop_time and a step > 0 (the package has none)")
+    stop_time, step = package_settings(ssp_path, stop_time, step)
     n = round(stop_time / step)
     if n < 10:  # measured: the ecos library stops on a floating-point exception below
         raise SSPError(f"Ecos needs at least 10 steps; {stop_time} s at {step} s is {n}")

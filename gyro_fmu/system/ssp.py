@@ -260,15 +260,25 @@ def _package_for_libcosim(ssp_path: Path, step: float, work: Path) -> Path:
     return dest
 
 
-def package_settings(ssp_path: Path) -> tuple[float | None, float | None]:
-    """(stopTime, baseStepSize) written in the package, None where absent."""
+def package_settings(ssp_path: Path, stop_time: float | None = None,
+                     step: float | None = None) -> tuple[float, float]:
+    """(stop time, step) of a run of the package: the ones given, else the package's
+    DefaultExperiment stopTime and osp:FixedStepAlgorithm baseStepSize."""
+    ssp_path = Path(ssp_path)
+    if not ssp_path.exists():
+        raise SSPError(f"SSP package {ssp_path} not found: write it with `write_ssp`")
     with zipfile.ZipFile(ssp_path) as z:
         root = ET.fromstring(z.read("SystemStructure.ssd"))
     experiment = root.find(_q(SSD, "DefaultExperiment"))
-    stop = experiment.get("stopTime") if experiment is not None else None
     fixed = root.find(f".//{_q(OSP, 'FixedStepAlgorithm')}")
-    step = fixed.get("baseStepSize") if fixed is not None else None
-    return (None if stop is None else float(stop)), (None if step is None else float(step))
+    if stop_time is None and experiment is not None and experiment.get("stopTime"):
+        stop_time = float(experiment.get("stopTime"))
+    if step is None and fixed is not None and fixed.get("baseStepSize"):
+        step = float(fixed.get("baseStepSize"))
+    if stop_time is None or step is None or not step > 0:
+        raise SSPError(f"{ssp_path.name} gives no stop time or step: pass stop_time and a "
+                       "step > 0")
+    return stop_time, step
 
 
 def _get_real_samples() -> Callable[..., int]:
@@ -347,13 +357,7 @@ def run_ssp_libcosim(
     from libcosimpy.CosimObserver import CosimObserver
 
     ssp_path = Path(ssp_path)
-    if not ssp_path.exists():
-        raise SSPError(f"SSP package {ssp_path} not found: write it with `write_ssp`")
-    package_stop, package_step = package_settings(ssp_path)
-    stop_time = package_stop if stop_time is None else stop_time
-    step = package_step if step is None else step
-    if stop_time is None or step is None:
-        raise SSPError(f"{ssp_path.name} gives no stop time or step: pass stop_time and step")
+    stop_time, step = package_settings(ssp_path, stop_time, step)
     step_ns = round(step * _NS)
     if step_ns <= 0 or abs(step_ns - step * _NS) > 1e-6 * step_ns:
         raise SSPError(f"step {step} s is not a whole number of nanoseconds (libcosim's unit)")
