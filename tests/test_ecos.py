@@ -8,8 +8,11 @@ Target of the issue: max |a - b| / max |b| of Omega_hat and plant.y below 1e-8.
 from __future__ import annotations
 
 import csv
+import re
 import subprocess
+import zipfile
 from importlib.util import find_spec
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -58,10 +61,31 @@ def test_without_the_parameter_set_ecos_runs_the_fmu_defaults(models_dir, tmp_pa
     assert rel["plant.y"] > 1e-3 and rel["rate.Omega_z"] > 1e-3, rel
 
 
+def _through_proxyfmu(ssp: Path) -> Path:
+    """The package with every component behind Ecos' proxyfmu (one process per FMU)."""
+    proxied = ssp.with_name("GyroSystem.ssp")
+    ssp.rename(ssp.with_name("direct.ssp"))
+    with zipfile.ZipFile(ssp.with_name("direct.ssp")) as src, \
+            zipfile.ZipFile(proxied, "w", zipfile.ZIP_DEFLATED) as out:
+        for item in src.infolist():
+            data = src.read(item.filename)
+            if item.filename == "SystemStructure.ssd":
+                data = re.sub(rb'source="(resources/\w+\.fmu)"',
+                              rb'source="proxyfmu://localhost?file=\1"', data)
+                assert data.count(b"proxyfmu://") == 4
+            out.writestr(item, data)
+    return proxied
+
+
 @pytest.mark.skipif(tbb_folder() is None, reason="no libtbb.so.12 (pip install tbb)")
-def test_the_ecos_cli_runs_the_package_with_an_empty_environment(models_dir, tmp_path):
+@pytest.mark.parametrize("proxied", [False, True], ids=["in-process", "proxyfmu"])
+def test_the_ecos_cli_runs_the_package_with_an_empty_environment(models_dir, tmp_path, proxied):
+    """Also with every FMU in a proxyfmu process of its own: a non-Python host again."""
     path = write_ssp(NOT_A_PRESET, models_dir, tmp_path / "GyroSystem.ssp")
-    env = {"PATH": "/usr/bin:/bin", "LD_LIBRARY_PATH": str(tbb_folder())}
+    if proxied:
+        path = _through_proxyfmu(path)
+        ecos_binary("proxyfmu")  # its run bit
+    env = {"PATH": f"{ecos_binary().parent}:/usr/bin:/bin", "LD_LIBRARY_PATH": str(tbb_folder())}
     proc = subprocess.run(
         [str(ecos_binary()), "simulate", "--path", str(path), "--stepSize", "5e-6",
          "--stopTime", "0.002", "--parameterSet", PARAMETER_SET, "--noParallel"],
