@@ -8,8 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import GyroFmuError
 
-class CoSimulationError(RuntimeError):
+
+class CoSimulationError(GyroFmuError, RuntimeError):
     """A co-simulation could not be set up or an FMU refused a step."""
 
 

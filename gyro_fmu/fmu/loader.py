@@ -26,6 +26,7 @@ from importlib.util import find_spec
 from pathlib import Path
 from xml.etree import ElementTree
 
+from ..errors import GyroFmuError
 from .python_env import REQUIRED_MODULES, find_libpython, python_home, required_paths
 
 LOADER_SOURCE = Path(__file__).resolve().parent / "python_loader.c"
@@ -33,7 +34,7 @@ ENV_FILE = "resources/python_env.txt"
 MARKER = b"@(#)pythonfmu-shim"
 
 
-class LoaderUnavailableError(RuntimeError):
+class LoaderUnavailableError(GyroFmuError, RuntimeError):
     """The loader cannot be built here (no C compiler, no shared libpython)."""
 
 

@@ -22,6 +22,7 @@ import numpy as np
 from fmpy import read_model_description, simulate_fmu
 from fmpy.util import read_csv, validate_signal, write_csv
 
+from ..errors import GyroFmuError
 from .build import load_slave
 
 LS_REF_DIR = "extra/org.fmi-standard.fmi-ls-ref"
@@ -29,7 +30,7 @@ MANIFEST = f"{LS_REF_DIR}/fmi-ls-manifest.xml"
 _LS = "http://fmi-standard.org/fmi-ls-manifest"
 
 
-class ReferenceResultError(RuntimeError):
+class ReferenceResultError(GyroFmuError, RuntimeError):
     """An FMU without usable reference results."""
 
 

@@ -13,6 +13,8 @@ from dataclasses import asdict, dataclass, fields, replace
 
 import numpy as np
 
+from ..errors import GyroFmuError
+
 #: Names of the seven fabrication-dependent parameters, in the patent's order.
 PARAMETER_NAMES: tuple[str, ...] = ("kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m")
 
@@ -43,7 +45,7 @@ PARAMETER_BOUNDS: dict[str, dict[str, float]] = {
 DEFAULT_PRESET = "park-horowitz"
 
 
-class ParameterError(ValueError):
+class ParameterError(GyroFmuError, ValueError):
     """A parameter set that cannot describe a physical gyroscope, or a bad name."""
 
 

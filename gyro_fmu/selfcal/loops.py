@@ -30,6 +30,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from numba import njit
 
+from ..errors import GyroFmuError
 from .resonator import non_finite_fields
 
 #: Outputs of one loops step, in order.
@@ -84,7 +85,7 @@ S_VX_PREVIOUS = 18
 S_VY_PREVIOUS = 19
 
 
-class LoopsError(ValueError):
+class LoopsError(GyroFmuError, ValueError):
     """A loop setting is unusable; the message names it and the remedy."""
 
 

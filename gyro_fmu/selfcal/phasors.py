@@ -16,8 +16,10 @@ import math
 
 import numpy as np
 
+from ..errors import GyroFmuError
 
-class PhasorError(ValueError):
+
+class PhasorError(GyroFmuError, ValueError):
     """The record does not fit the frequency grid; the message says what to change."""
 
 

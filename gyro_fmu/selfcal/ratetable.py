@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..errors import GyroFmuError
 from .inprocess import CarrierSimulation
 from .loops import LoopsError, LoopSettings
 from .resonator import ResonatorParameters
@@ -49,7 +50,7 @@ class RateTableResult:
         }
 
 
-class RateTableError(ValueError):
+class RateTableError(GyroFmuError, ValueError):
     """A rate-table setting that cannot work; the message names it and the remedy."""
 
 

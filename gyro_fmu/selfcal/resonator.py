@@ -35,6 +35,8 @@ import numpy as np
 from numba import njit
 from scipy.linalg import expm
 
+from ..errors import GyroFmuError
+
 #: Order of the resonator's state vector.
 STATE = ("x", "y", "vx", "vy", "zx", "zy", "ring1_cos", "ring1_sin", "ring2_cos", "ring2_sin")
 #: Order of its held inputs.
@@ -44,7 +46,7 @@ N_STATE = len(STATE)
 EARTH_RATE = 7.2921150e-5
 
 
-class ResonatorError(ValueError):
+class ResonatorError(GyroFmuError, ValueError):
     """A resonator parameter is unusable; the message names it and the remedy."""
 
 
