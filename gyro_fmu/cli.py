@@ -8,12 +8,12 @@ import warnings
 from pathlib import Path
 
 from . import __version__
-from .cosim.master import CoSimulationError
-from .fmu.build import FMU_NAMES, MODELS_DIR, build_all
-from .model.parameters import ParameterError, UnstablePlantWarning
+from .errors import GyroFmuError
 
 
 def _cmd_build(args: argparse.Namespace) -> int:
+    from .fmu.build import build_all
+
     for path in build_all(Path(args.dest)):
         print(f"built {path.resolve()}")
     return 0
@@ -48,12 +48,16 @@ def _cmd_doctor(args: argparse.Namespace) -> int:
 
 
 def parser() -> argparse.ArgumentParser:
+    from .fmu.build import FMU_NAMES, MODELS_DIR
+
     p = argparse.ArgumentParser(
         prog="gyro-fmu",
         description="MEMS gyroscope FMUs (US 2011/0314910 A1) and their self-calibration "
                     "(US 9,482,553): build, co-simulate, calibrate, report.",
     )
     p.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    p.add_argument("--debug", action="store_true",
+                   help="show the traceback of an error instead of one line")
     sub = p.add_subparsers(dest="command", required=True)
 
     b = sub.add_parser("build", help=f"build {', '.join(FMU_NAMES)} into models/")
@@ -85,15 +89,42 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = parser().parse_args(argv)
-    try:
+    """Run one command. Exit codes: 0 done, 1 a check failed (validate, identify), 2 an
+    input, file or FMU that cannot be used (GyroFmuError) or an OS error (a folder that
+    cannot be written, a file that is not there): one line naming the cause and the
+    remedy, no traceback unless --debug; 130 Ctrl-C, after the work so far is written."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv  # anywhere on the line, before or after the command
+    try:  # the imports behind the parser take a second: Ctrl-C there is an interrupt too
+        args = parser().parse_args([a for a in argv if a != "--debug"])
+        from .model.parameters import UnstablePlantWarning
+
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UnstablePlantWarning)  # reported via summary
             return args.func(args)
-    except (ParameterError, CoSimulationError, FileNotFoundError) as exc:
-        print(f"gyro-fmu: error: {exc}", file=sys.stderr)
+    except KeyboardInterrupt as exc:
+        if debug:
+            raise
+        print(f"gyro-fmu: interrupted{f': {exc}' if str(exc) else ''}", file=sys.stderr)
+        return 130
+    except (GyroFmuError, OSError) as exc:
+        if debug:
+            raise
+        print(f"gyro-fmu: error: {error_line(exc)}", file=sys.stderr)
         return 2
 
 
-if __name__ == "__main__":
-    raise SystemExit(main())
+def error_line(exc: BaseException) -> str:
+    """The message of a GyroFmuError as is; an OS error with its file and a remedy."""
+    if not isinstance(exc, OSError) or isinstance(exc, GyroFmuError):
+        return str(exc)
+    where = f"{exc.filename}: " if exc.filename else ""
+    what = exc.strerror or str(exc)
+    if isinstance(exc, FileNotFoundError):
+        remedy = "check the path (a missing folder on the way?)"
+    elif isinstance(exc, (PermissionError, IsADirectoryError, NotADirectoryError,
+                          FileExistsError)):
+        remedy = "give a path you may write and that is not in the way of a file or folder"
+    else:
+        remedy = "check the path, the free space and the permissions"
+    return f"{where}{what}: {remedy} (--debug shows the traceback)"

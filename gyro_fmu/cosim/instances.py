@@ -113,7 +113,15 @@ def instantiate(comp: Component, callbacks: fmi2CallbackFunctions) -> Instance:
         raise CoSimulationError(
             f"FMU {path} of instance {comp.name!r} not found: build it with `gyro-fmu build`"
         )
-    md = read_model_description(str(path))
+    if path.is_dir():
+        raise CoSimulationError(f"FMU {path} of instance {comp.name!r} is a folder: give "
+                                "the .fmu file")
+    try:
+        md = read_model_description(str(path))
+    except Exception as exc:  # not a zip, truncated, no or bad modelDescription.xml
+        raise CoSimulationError(
+            f"{path} (instance {comp.name!r}) is not a readable FMU: {exc}; give an FMI 2.0 "
+            "co-simulation .fmu (ours: `gyro-fmu build`)") from None
     if md.fmiVersion != "2.0" or md.coSimulation is None:
         raise CoSimulationError(f"{path} is not an FMI 2.0 co-simulation FMU")
     unzip_dir = unpacked(path)

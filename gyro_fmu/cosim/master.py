@@ -9,6 +9,8 @@ setReal (all its connected inputs): the fewest calls FMI 2.0 allows.
 
 from __future__ import annotations
 
+import math
+import os
 import signal
 import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -32,16 +34,24 @@ from .instances import (
     variable,
 )
 from .stepping import GET, SET, step_loop
-from .system import Component, Connection, CoSimulationError, CoSimulationResult
+from .system import (
+    Component,
+    Connection,
+    CoSimulationError,
+    CoSimulationInterrupted,
+    CoSimulationResult,
+)
 
 __all__ = [
     "CoSimulationError",
+    "CoSimulationInterrupted",
     "CoSimulationResult",
     "Component",
     "Connection",
     "LogCollector",
     "fmi2_callbacks",
     "run_cosimulation",
+    "whole_steps",
 ]
 
 
@@ -52,11 +62,16 @@ def run_cosimulation(
     step: float,
     start_time: float = 0.0,
     record: Sequence[str] | None = None,
+    max_result_bytes: int | None = None,
 ) -> CoSimulationResult:
     """Run the coupled FMUs with a fixed communication step and record signals.
 
     record: "instance.variable" names to keep; by default every output of every FMU.
     Returns values at the n + 1 communication points start_time + k * step.
+    max_result_bytes: refuse (before allocating) a result table larger than this
+    (default: half the physical memory, `result_memory_limit`).
+    Ctrl-C stops the run between chunks of steps and raises CoSimulationInterrupted
+    (a KeyboardInterrupt) carrying the points simulated so far.
     """
     if not step > 0.0:
         raise CoSimulationError(f"communication step {step!r} s must be > 0")
@@ -65,28 +80,72 @@ def run_cosimulation(
     names = [c.name for c in components]
     if len(set(names)) != len(names):
         raise CoSimulationError(f"instance names must be unique, got {names}")
-    n_steps = round((stop_time - start_time) / step)
+    n_steps = whole_steps(stop_time - start_time, step)
     logger = LogCollector()
     callbacks = fmi2_callbacks(logger)
     instances: dict[str, Instance] = {}
+    with _interrupt_between_chunks() as interrupted:
+        try:
+            for comp in components:
+                instances[comp.name] = instantiate(comp, callbacks)
+            outputs = _OutputTable(instances)
+            wiring = _wire(outputs, connections)
+            columns, getters = _recording(outputs, record)
+            plan = _Plan(instances, outputs, wiring, getters, n_steps, max_result_bytes)
+            for name, inst in instances.items():
+                targets = map(split_reference, (c.dst for c in connections))
+                connected = {var for inst_name, var in targets if inst_name == name}
+                initialize(inst, start_time, stop_time, logger, connected)
+            if interrupted():
+                raise CoSimulationInterrupted("co-simulation interrupted during start-up, "
+                                              "before the first step")
+            k, phase, index, status = plan.run(start_time, step, interrupted)
+            result = CoSimulationResult(tuple(columns), plan.result(k + 1), units_of(instances))
+            if interrupted():  # Ctrl-C wins over a refusal in the same chunk
+                raise CoSimulationInterrupted(
+                    f"co-simulation interrupted at t = {start_time + k * step:.9g} s of "
+                    f"{stop_time:g} s", result)
+            if phase >= 0:
+                raise plan.refusal(k, phase, index, status, start_time + k * step, logger)
+            return result
+        finally:
+            for inst in instances.values():
+                release(inst)
+
+
+def whole_steps(duration: float, step: float) -> int:
+    """The number of communication steps in `duration`; refuses a step that does not
+    divide it (rounding would move the end of the run without a word)."""
+    n = round(duration / step)
+    if n < 1 or abs(n * step - duration) > 1e-9 * max(duration, step):
+        lower, upper = max(1, math.floor(duration / step)), math.ceil(duration / step)
+        raise CoSimulationError(
+            f"the communication step {step!r} s does not divide the run of {duration!r} s "
+            f"({duration / step:.6g} steps): use a stop time of {lower * step:.9g} s or "
+            f"{upper * step:.9g} s, or a step that divides {duration!r} s")
+    return n
+
+
+def check_result_memory(points: int, signals: int, max_bytes: int | None = None) -> None:
+    """Refuse, before allocating, a table of `points` x `signals` floats larger than
+    max_bytes (default `result_memory_limit()`): numpy would fail with a MemoryError or
+    the machine would swap."""
+    limit = result_memory_limit() if max_bytes is None else max_bytes
+    needed = points * signals * 8
+    if needed > limit:
+        raise CoSimulationError(
+            f"the results would need {needed / 2**30:.3g} GiB ({points} points x {signals} "
+            f"signals x 8 bytes), more than the limit of {limit / 2**30:.3g} GiB (half this "
+            "machine's memory): shorten the run or lengthen the step, record fewer signals "
+            "(run_cosimulation(record=[...])), or run it in pieces")
+
+
+def result_memory_limit() -> int:
+    """Bytes the recorded results may take: half the machine's physical memory."""
     try:
-        for comp in components:
-            instances[comp.name] = instantiate(comp, callbacks)
-        outputs = _OutputTable(instances)
-        wiring = _wire(outputs, connections)
-        columns, getters = _recording(outputs, record)
-        plan = _Plan(instances, outputs, wiring, getters, n_steps)
-        for name, inst in instances.items():
-            targets = map(split_reference, (c.dst for c in connections))
-            connected = {var for inst_name, var in targets if inst_name == name}
-            initialize(inst, start_time, stop_time, logger, connected)
-        k, phase, index, status = plan.run(start_time, step)
-        if phase >= 0:
-            raise plan.refusal(k, phase, index, status, start_time + k * step, logger)
-        return CoSimulationResult(tuple(columns), plan.result(), units_of(instances))
-    finally:
-        for inst in instances.values():
-            release(inst)
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") // 2
+    except (ValueError, OSError, AttributeError):
+        return 8 << 30
 
 
 #: Communication steps per call of the compiled loop (~0.1 s of the default system).
@@ -130,7 +189,8 @@ class _Plan:
     """
 
     def __init__(self, instances: dict[str, Instance], outputs: _OutputTable, wiring: dict,
-                 getters: list[tuple[str, int]], n_steps: int) -> None:
+                 getters: list[tuple[str, int]], n_steps: int,
+                 max_result_bytes: int | None = None) -> None:
         # outputs.add registered (instance, variable) -> position in inst.out_vrs
         recorded = [(name, instances[name].out_vrs[i]) for name, i in getters]
         column: dict[tuple[str, int], int] = {}
@@ -175,26 +235,22 @@ class _Plan:
             _entry_points([inst.slave for inst in instances.values()], "fmi2DoStep"),
             _components([inst.slave for inst in instances.values()]),
         )
+        check_result_memory(n_steps + 1, ncol, max_result_bytes)
         self.data = np.empty((n_steps + 1, ncol))
         wanted = [0] + [column[r] for r in recorded]
         self._wanted = None if wanted == list(range(ncol)) else np.array(wanted, dtype=np.intp)
 
-    def run(self, start_time: float, step: float) -> tuple[int, int, int, int]:
-        """Every communication step; (step index, phase, call index, status) of a refusal.
-
-        Runs in chunks of _CHUNK steps; Ctrl-C is held off until the end of a chunk
-        (_interrupt_between_chunks), then raised as KeyboardInterrupt.
-        """
+    def run(self, start_time: float, step: float,
+            interrupted: Callable[[], bool]) -> tuple[int, int, int, int]:
+        """Every communication step, in chunks of _CHUNK steps, stopping after the chunk
+        in which a call was refused or Ctrl-C came (`interrupted`). Returns (index of the
+        last row read, phase, call index, status); phase -1 when nothing was refused."""
         n = self.data.shape[0] - 1
-        with _interrupt_between_chunks() as interrupted:
-            for first in range(0, n + 1, _CHUNK):
-                outcome = step_loop(self.data, start_time, step, first,
-                                    min(first + _CHUNK - 1, n), *self.args)
-                if outcome[1] >= 0 and not interrupted():
-                    return outcome
-                if interrupted():  # Ctrl-C wins over a refusal in the same chunk
-                    raise KeyboardInterrupt(f"co-simulation interrupted at t = "
-                                            f"{start_time + outcome[0] * step:.9g} s")
+        for first in range(0, n + 1, _CHUNK):
+            outcome = step_loop(self.data, start_time, step, first,
+                                min(first + _CHUNK - 1, n), *self.args)
+            if outcome[1] >= 0 or interrupted():
+                return outcome
         return outcome
 
     def refusal(self, k: int, phase: int, index: int, status: int, t: float,
@@ -213,9 +269,11 @@ class _Plan:
                     f"(fmi2DoStep returned {status_name})")
         return CoSimulationError(f"{what}; it said:\n{logger.recent(name)}")
 
-    def result(self) -> np.ndarray:
-        """The recorded columns in the order asked for (no copy in the default layout)."""
-        return self.data if self._wanted is None else self.data[:, self._wanted]
+    def result(self, rows: int) -> np.ndarray:
+        """The first `rows` rows of the recorded columns, in the order asked for (no copy
+        in the default layout)."""
+        data = self.data[:rows]
+        return data if self._wanted is None else data[:, self._wanted]
 
 
 def _entry_points(slaves: Iterable[FMU2Slave], function: str) -> np.ndarray:

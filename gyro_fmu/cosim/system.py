@@ -15,6 +15,15 @@ class CoSimulationError(GyroFmuError, RuntimeError):
     """A co-simulation could not be set up or an FMU refused a step."""
 
 
+class CoSimulationInterrupted(KeyboardInterrupt):
+    """Ctrl-C stopped a co-simulation between steps; `result` holds every communication
+    point simulated so far (None when it came before the first step)."""
+
+    def __init__(self, message: str, result: CoSimulationResult | None = None) -> None:
+        super().__init__(message)
+        self.result = result
+
+
 @dataclass(frozen=True)
 class Component:
     """One FMU instance: a name used in connections, its file, parameter values, and

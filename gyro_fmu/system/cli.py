@@ -27,6 +27,17 @@ def _assignments(items: list[str] | None, what: str) -> dict[str, float]:
     return out
 
 
+def _positive_int(text: str) -> int:
+    """argparse type: an integer >= 1 (argparse reports the refusal with exit 2)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} must be at least 1")
+    return value
+
+
 def _scenario_from(args: argparse.Namespace) -> Scenario:
     base = scenario(args.scenario)
     changes: dict[str, object] = {}
@@ -68,9 +79,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from .run import run_and_report
 
     sc = _scenario_from(args)
-    fmus = {k: Path(v) for k, v in (f.split("=", 1) for f in args.fmu or [])}
+    fmus = {}
+    for item in args.fmu or []:
+        name, sep, path = item.partition("=")
+        if not sep or name not in ("drive", "rate", "plant", "observer"):
+            raise ParameterError(f"--fmu {item!r} must read INSTANCE=PATH with INSTANCE one "
+                                 "of drive, rate, plant, observer")
+        fmus[name] = Path(path)
     out = Path(args.out or f"runs/{args.scenario}")
-    if not fmus:
+    if set(fmus) != {"drive", "rate", "plant", "observer"}:  # ours for the others
         _ensure_models(Path(args.models))
     summary = run_and_report(sc, out, Path(args.models), fmus, figures=not args.no_figures)
     for message in summary["warnings"]:
@@ -89,9 +106,13 @@ def _cmd_report(args: argparse.Namespace) -> int:
     summary_path = run_dir / "summary.json"
     if not summary_path.exists():
         raise ParameterError(f"{summary_path} not found: give a folder written by `gyro-fmu run`")
-    summary = json.loads(summary_path.read_text())
-    _print_summary(summary)
-    truth = GyroParameters(**summary["true_parameters"])
+    try:
+        summary = json.loads(summary_path.read_text())
+        _print_summary(summary)
+        truth = GyroParameters(**summary["true_parameters"])
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise ParameterError(f"{summary_path} is damaged or not written by `gyro-fmu run` "
+                             f"({type(exc).__name__}: {exc}): rerun the scenario") from None
     for path in make_figures(load_results(run_dir / "results.csv"), truth, run_dir):
         print(f"wrote {path}")
     return 0
@@ -227,13 +248,19 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     conv = s["convergence_time_s"]
     print(f"{s['n']} gyros ({s['ok']} ok, {s['failed']} failed) in {s['wall_s']:.0f} s on "
           f"{s['n_workers']} workers: {s['gyros_per_minute']:.1f} gyros/min")
+    def ms(v: float | None) -> str:
+        return "n/a" if v is None else f"{v * 1e3:.2f} ms"
+
     print(f"all 8 within tolerance at {s['deadline_s'] * 1e3:g} ms: "
           f"{s['fraction_all_within_at_deadline']:.1%}; convergence time p50 "
-          f"{(conv['p50'] or 0) * 1e3:.2f} ms, p95 {(conv['p95'] or 0) * 1e3:.2f} ms, "
-          f"never {conv['never']}")
+          f"{ms(conv['p50'])}, p95 {ms(conv['p95'])}, never {conv['never']}"
+          + ("" if conv["p50"] is not None else " (no gyro converged)"))
     for f in s["failures"][:10]:
         print(f"  failed gyro {f['gyro']}: {f['reason']}")
     print("wrote " + ", ".join(str(p) for p in paths))
+    if res.interrupted:
+        raise KeyboardInterrupt(f"sweep {res.interrupted}; their rows and the partial "
+                                f"summary are in {args.out}")
     return 0
 
 # --- in main(), after the `observability` subparser: ---------------------------------------
@@ -342,7 +369,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     sw = sub.add_parser("sweep", parents=[common],
                         help="Monte Carlo over fabrication tolerances: N gyros, each a real "
                              "FMU co-simulation, on Dask")
-    sw.add_argument("-n", "--n", type=int, default=200, help="number of gyros")
+    sw.add_argument("-n", "--n", type=_positive_int, default=200, help="number of gyros")
     sw.add_argument("--spread", type=float, default=0.10,
                     help="relative spread of every parameter (default 0.10)")
     sw.add_argument("--spread-of", dest="spread_of", action="append", metavar="NAME=S",

@@ -3,16 +3,18 @@
 from __future__ import annotations
 
 import json
+import tempfile
 import time
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 
 from .. import __version__
-from ..cosim.master import CoSimulationResult, run_cosimulation
+from ..cosim.master import CoSimulationInterrupted, CoSimulationResult, run_cosimulation
+from ..errors import GyroFmuError
 from ..estimation.metrics import ESTIMATED, summarize
 from ..fmu.build import FMU_NAMES, MODELS_DIR, ensure_current
 from ..model.parameters import GyroParameters, validate_for_plant
@@ -79,23 +81,69 @@ def run_and_report(
     fmus: Mapping[str, Path] | None = None,
     figures: bool = True,
 ) -> dict:
-    """Run the scenario and write results.csv, summary.json and the figures to out_dir."""
+    """Run the scenario and write results.csv, summary.json and the figures to out_dir.
+
+    The folder is made (or refused) before the run, and removed again if the run fails
+    before writing into it. Ctrl-C (CoSimulationInterrupted) writes what was simulated,
+    with `"interrupted"` in summary.json, and is raised again; a results file that
+    cannot be written is saved to a fresh temporary folder (`write_or_rescue`).
+    """
     out_dir = Path(out_dir)
+    created = [d for d in (out_dir, *out_dir.parents) if not d.exists()]
     out_dir.mkdir(parents=True, exist_ok=True)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        validate_for_plant(sc.params)  # the growth-rate warning goes into summary.json
-        noise = absolute_noise(sc)
-        start = time.perf_counter()
-        result = run_fmus(sc, models_dir, fmus, noise)
-        wall = time.perf_counter() - start
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            validate_for_plant(sc.params)  # the growth-rate warning goes into summary.json
+            noise = absolute_noise(sc)
+            start = time.perf_counter()
+            try:
+                result = run_fmus(sc, models_dir, fmus, noise)
+                interrupted = None
+            except CoSimulationInterrupted as exc:
+                if exc.result is None or len(exc.result.data) < 2:
+                    raise
+                result, interrupted = exc.result, exc
+            wall = time.perf_counter() - start
+    except BaseException:
+        for folder in created:  # nothing to keep: no empty folders left behind
+            if any(folder.iterdir()):
+                break
+            folder.rmdir()
+        raise
     messages = [str(w.message) for w in caught]
-    result.write_csv(out_dir / "results.csv")
+    write_or_rescue(result.write_csv, out_dir / "results.csv")
     summary = summary_of(sc, result, wall, messages, noise)
-    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2))
+    if interrupted is not None:
+        summary["interrupted"] = {"at_s": float(result["time"][-1]), "message": str(interrupted)}
+    write_or_rescue(lambda path: path.write_text(json.dumps(summary, indent=2)),
+                    out_dir / "summary.json")
+    if interrupted is not None:
+        interrupted.args = (f"{interrupted}; wrote what was simulated to "
+                            f"{out_dir / 'results.csv'} and summary.json",)
+        raise interrupted
     if figures:
         make_figures(result, sc.params, out_dir)
     return summary
+
+
+def write_or_rescue(write: Callable[[Path], None], path: Path) -> Path:
+    """write(path); if the OS refuses, write(same name in a fresh temporary folder) and
+    raise a GyroFmuError naming both, so that computed results are never lost."""
+    try:
+        write(path)
+        return path
+    except OSError as exc:
+        rescue = Path(tempfile.mkdtemp(prefix="gyro-fmu-rescue-")) / path.name
+        write(rescue)
+        raise RunOutputError(
+            f"could not write {path} ({exc.strerror or exc}); the results are safe in "
+            f"{rescue}: free space or fix the folder's permissions, or give another --out"
+        ) from exc
+
+
+class RunOutputError(GyroFmuError):
+    """An output file of a run could not be written (its content was rescued)."""
 
 
 def make_figures(result: CoSimulationResult, truth: GyroParameters, out_dir: Path) -> list[Path]:
@@ -108,9 +156,19 @@ def make_figures(result: CoSimulationResult, truth: GyroParameters, out_dir: Pat
 
 
 def load_results(path: Path) -> CoSimulationResult:
-    """Read a results.csv written by `run_and_report`."""
+    """Read a results.csv written by `run_and_report`; RunOutputError if it is not one
+    (no header, no rows, rows of unequal length, a cell that is not a number)."""
     path = Path(path)
     with path.open() as f:
         columns = tuple(f.readline().strip().split(","))
-    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    if columns[:1] != ("time",):
+        raise RunOutputError(f"{path} is not a results.csv of `gyro-fmu run`: its header "
+                             f"starts with {columns[:1]}, not 'time'; rerun the scenario")
+    try:
+        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    except ValueError as exc:
+        raise RunOutputError(f"{path} is damaged ({exc}): rerun the scenario") from None
+    if data.shape[0] == 0 or data.shape[1] != len(columns):
+        raise RunOutputError(f"{path} holds {data.shape[0]} rows of {data.shape[1]} values "
+                             f"for {len(columns)} columns: rerun the scenario")
     return CoSimulationResult(columns, data, {})

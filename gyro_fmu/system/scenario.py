@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cosim.master import Component, Connection
+from ..cosim.master import Component, Connection, check_result_memory, whole_steps
 from ..model.drive import TwoToneDrive
 from ..model.parameters import (
     DEFAULT_PRESET,
@@ -81,6 +81,7 @@ class Scenario:
             raise ParameterError(
                 f"measured_pair={self.measured_pair!r}: use 1 (positions) or 2 (velocities)"
             )
+        self.n_steps  # noqa: B018 - a step that does not divide the stop time
         self.params  # noqa: B018 - fail early on a bad preset or override
 
     @property
@@ -108,7 +109,7 @@ class Scenario:
 
     @property
     def n_steps(self) -> int:
-        return round(self.stop_time / self.step)
+        return whole_steps(self.stop_time, self.step)
 
     def with_(self, **changes: object) -> Scenario:
         return replace(self, **changes)
@@ -156,6 +157,7 @@ def noise_free_run(sc: Scenario) -> np.ndarray:
     """Plant states [x, vx, y, vy] at every communication point, noise off (library only)."""
     plant = GyroPlantModel(sc.params)
     drive, rate, h = sc.the_drive, sc.rate, sc.step
+    check_result_memory(sc.n_steps + 1, 4)
     out = np.empty((sc.n_steps + 1, 4))
     out[0] = plant.s
     for k in range(sc.n_steps):

@@ -26,6 +26,7 @@ import csv
 import json
 import math
 import os
+import signal
 import sys
 import time
 import warnings
@@ -191,6 +192,7 @@ class SweepResult:
     spec: SweepSpec
     wall_s: float
     n_workers: int
+    interrupted: str | None = None  #: why the sweep stopped early (Ctrl-C), else None
 
     @property
     def ok(self) -> list[dict]:
@@ -219,6 +221,7 @@ class SweepResult:
                          if self.rows else None}
         return {
             "n": len(self.rows), "ok": len(ok), "failed": len(self.failed),
+            "n_requested": self.spec.n, "interrupted": self.interrupted,
             "fraction_all_within_at_deadline": self.fraction_within(),
             "deadline_s": self.spec.deadline or self.spec.stop_time,
             "convergence_time_s": {"p50": _pct(conv, 50), "p95": _pct(conv, 95),
@@ -289,7 +292,7 @@ def run_sweep(
     n_workers single-threaded worker processes (default: all cores).
     draws: explicit parameter sets instead of spec.tolerances.draw(spec.n).
     """
-    from dask.distributed import Client, LocalCluster, as_completed
+    from dask.distributed import Client, as_completed
 
     from .run import ensure_fmus
 
@@ -299,8 +302,7 @@ def run_sweep(
     cluster = None
     if scheduler is None:
         n_workers = n_workers or os.cpu_count() or 1
-        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
+        cluster = _local_cluster(n_workers)
         client = Client(cluster)
     else:
         client = Client(scheduler)
@@ -311,25 +313,49 @@ def run_sweep(
                    for i, d in enumerate(draws)}
         bar = _Progress(len(futures)) if progress else None
         rows: dict[int, dict] = {}
-        for fut in as_completed(futures):
-            i = futures[fut]
-            try:
-                row = fut.result()
-            except Exception as exc:  # worker died, task lost: still a row
-                row = {"gyro": i, "status": "failed",
-                       "reason": f"task error {type(exc).__name__}: {exc}"[:500],
-                       **{f"true_{k}": float(v) for k, v in draws[i].items()}}
-            rows[i] = row
-            if on_row:
-                on_row(row)
-            if bar:
-                bar.update(row["status"] != "ok")
+        interrupted = None
+        try:
+            for fut in as_completed(futures):
+                i = futures[fut]
+                try:
+                    row = fut.result()
+                except Exception as exc:  # worker died, task lost: still a row
+                    row = {"gyro": i, "status": "failed",
+                           "reason": f"task error {type(exc).__name__}: {exc}"[:500],
+                           **{f"true_{k}": float(v) for k, v in draws[i].items()}}
+                rows[i] = row
+                if on_row:
+                    on_row(row)
+                if bar:
+                    bar.update(row["status"] != "ok")
+        except KeyboardInterrupt:  # keep every finished row; the caller writes them
+            interrupted = f"interrupted after {len(rows)} of {len(futures)} gyros"
+            if cluster is None:  # someone else's cluster: stop our tasks there
+                client.cancel(list(futures))  # (a local one is closed below)
         wall = time.perf_counter() - start
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
-    return SweepResult([rows[i] for i in sorted(rows)], spec, wall, n_workers)
+    return SweepResult([rows[i] for i in sorted(rows)], spec, wall, n_workers, interrupted)
+
+
+def _local_cluster(n_workers: int):
+    """A LocalCluster of single-threaded worker processes that never see SIGINT.
+
+    A terminal's Ctrl-C reaches the whole process group: workers that took it would die
+    with tracebacks of their own. SIGINT is blocked while they start, so they inherit
+    the blocked signal (a signal mask survives fork and exec), and so do the cluster's
+    threads; a Ctrl-C during start-up stays pending here and is raised as
+    KeyboardInterrupt once the mask is lifted (run_sweep keeps every finished row)."""
+    from dask.distributed import LocalCluster
+
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        return LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                            dashboard_address=None)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 # --------------------------------------------------------------------------- outputs
@@ -359,7 +385,7 @@ def write_outputs(res: SweepResult, out_dir: Path, figures: bool = True) -> list
         pass
     (out / "summary.json").write_text(json.dumps(res.summary(), indent=2))
     paths.append(out / "summary.json")
-    if figures:
+    if figures and res.rows:  # nothing to draw when interrupted before the first gyro
         paths.append(histograms(res, out / "sweep_histograms.png"))
     return paths
 
