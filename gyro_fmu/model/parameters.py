@@ -29,18 +29,28 @@ PARAMETER_UNITS: dict[str, str] = {
     "m": "kg",
 }
 
+#: Largest |stiffness| (1/s^2) and |damping| (1/s) the model integrates accurately: beyond
+#: them the eigenvalues of the system matrix (held-input step, growth check) lose all
+#: precision in double arithmetic (dxx=1e300 gave "math range error"). A natural frequency
+#: of 1.6 GHz and a damping rate of 1e10 1/s are far beyond any MEMS resonator.
+K_MAX, D_MAX = 1e20, 1e10
+
 #: FMU min/max/nominal of each parameter: what physics allows, and its usual scale.
-#: Stiffnesses and dampings of the main axes cannot be negative; cross terms can.
-#: (m > 0 strictly is checked by check_parameters; min is inclusive in FMI.)
-PARAMETER_BOUNDS: dict[str, dict[str, float]] = {
-    "kxx": {"min": 0.0, "nominal": 1e8},
-    "kyy": {"min": 0.0, "nominal": 1e8},
-    "kxy": {"nominal": 1e7},
-    "dxx": {"min": 0.0, "nominal": 10.0},
-    "dyy": {"min": 0.0, "nominal": 10.0},
-    "dxy": {"nominal": 1.0},
-    "m": {"min": 0.0, "nominal": 1e-7},
+#: Main-axis stiffnesses and the mass must be > 0 (min_exclusive: FMI's min is
+#: inclusive, the FMU refuses the min itself too), main-axis dampings >= 0; cross terms
+#: can be negative.
+PARAMETER_BOUNDS: dict[str, dict[str, float | bool]] = {
+    "kxx": {"min": 0.0, "min_exclusive": True, "max": K_MAX, "nominal": 1e8},
+    "kyy": {"min": 0.0, "min_exclusive": True, "max": K_MAX, "nominal": 1e8},
+    "kxy": {"max": K_MAX, "nominal": 1e7},  # |kxy| <= K_MAX: check_parameters
+    "dxx": {"min": 0.0, "max": D_MAX, "nominal": 10.0},
+    "dyy": {"min": 0.0, "max": D_MAX, "nominal": 10.0},
+    "dxy": {"max": D_MAX, "nominal": 1.0},
+    "m": {"min": 0.0, "min_exclusive": True, "nominal": 1e-7},
 }
+
+_AXES = {"kxx": "x-axis stiffness", "kyy": "y-axis stiffness", "kxy": "cross-axis stiffness",
+         "dxx": "x-axis damping", "dyy": "y-axis damping", "dxy": "cross-axis damping"}
 
 DEFAULT_PRESET = "park-horowitz"
 
@@ -187,7 +197,26 @@ def check_parameters(p: GyroParameters) -> list[str]:
     if problems:
         return problems
     if p.m <= 0.0:
-        problems.append(f"mass m={p.m} kg must be > 0")
+        problems.append(f"mass m={p.m} kg must be > 0: give the proof mass in kg")
+    for name, what in _AXES.items():
+        value, unit = getattr(p, name), PARAMETER_UNITS[name]
+        limit = K_MAX if name.startswith("k") else D_MAX
+        if abs(value) > limit:
+            problems.append(
+                f"{what} {name}={value:g} {unit} is beyond |{name}| <= {limit:g} {unit}, the "
+                "range the model integrates accurately in double precision: give it divided "
+                f"by the mass (a MEMS gyroscope has {name} near "
+                f"{PARAMETER_BOUNDS[name]['nominal']:g})")
+        elif name in ("kxx", "kyy") and value <= 0.0:
+            problems.append(f"{what} {name}={value:g} {unit} must be > 0 (a main-axis spring "
+                            "is neither negative nor absent): give the stiffness divided by "
+                            "the mass, e.g. from preset " + repr(DEFAULT_PRESET))
+        elif name in ("dxx", "dyy") and value < 0.0:
+            problems.append(f"{what} {name}={value:g} {unit} must be >= 0 (a main-axis "
+                            "damping cannot feed energy in): give the damping divided by "
+                            "the mass")
+    if problems:
+        return problems
     eig_K = np.linalg.eigvalsh(p.K)
     if eig_K.min() <= 0.0:
         problems.append(
@@ -211,11 +240,16 @@ def validate_for_plant(p: GyroParameters) -> GyroParameters:
         warnings.warn(
             "damping matrix D=[[dxx, dxy], [dxy, dyy]] is indefinite "
             f"(eigenvalues {eig_D[0]:.4g} and {eig_D[1]:.4g} 1/s): one mode grows at "
-            f"{growth:.3g} 1/s (amplitude x{math.exp(growth * 0.1):.3f} per 100 ms)",
+            f"{growth:.3g} 1/s (amplitude x{_gain(growth * 0.1)} per 100 ms)",
             UnstablePlantWarning,
             stacklevel=2,
         )
     return p
+
+
+def _gain(exponent: float) -> str:
+    """exp(exponent) as text, also where it overflows a double."""
+    return f"{math.exp(exponent):.3f}" if exponent < 700.0 else f"e^{exponent:.3g}"
 
 
 def parameter_field_names() -> list[str]:
