@@ -67,6 +67,8 @@ class GyroObserver(GyroSlave):
                                "y_meas": s[:, 2], "vy_meas": s[:, 3]})
 
     state_holder = "observer"
+    #: Set by the parameters: a restored state must have the instance's own.
+    fixed_model_keys = ("version", "measured_pair", "tuning")
 
     def setup(self) -> None:
         from gyro_fmu.estimation.observer import GyroStateObserver

@@ -83,6 +83,13 @@ class GyroResonator(GyroSlave):
         self._V = np.zeros(2)
         self._publish()
 
+    def model_state_problem(self, state: dict) -> str | None:
+        """The noise block position must lie within the block it indexes."""
+        noise = state["noise"]
+        if not 0 <= noise["pos"] <= len(noise["block"]):
+            return f"model.noise.pos={noise['pos']} is outside its block 0..{len(noise['block'])}"
+        return None
+
     def advance(self, t: float, h: float) -> None:
         V = self._V
         V[0], V[1] = self.Vx, self.Vy

@@ -31,6 +31,16 @@
  * slave finds as <modelIdentifier>_pythonfmu.so). The real binary is never
  * dlclose'd, since dlclose of it runs exactly that use after free.
  *
+ * Status the slave cannot deliver through pythonfmu (which knows only fmi2OK and
+ * fmi2Discard, and answers fmi2Terminated = true after any fmi2Discard, so
+ * fmpy.simulate_fmu silently ended a run at a recoverable refusal): every instance
+ * is wrapped in a `struct instance`; while a call runs, the slave (through
+ * ctypes, gyro_fmu/fmu/host_status.py) may call pythonfmu_shim_report() to raise
+ * the status of that call (fmi2Warning, fmi2Error) and to say whether it can no
+ * longer step. fmi2GetBooleanStatus(fmi2Terminated) is answered here: false while
+ * the slave can step; fmi2Error with the reason logged once it cannot, so a host
+ * such as fmpy raises instead of ending the run as if it were complete.
+ *
  * Environment: PYTHONFMU_LIBPYTHON (libpython to load), PYTHONHOME (kept if
  * set), PYTHONPATH (ours are prepended), PYTHONFMU_SHIM_VERBOSE=1 (trace on
  * stderr).
@@ -430,13 +440,37 @@ FMI2_Export const char *fmi2GetVersion(void)
     return loaded ? real.fmi2GetVersion() : fmi2Version;
 }
 
+/* ------------------------------------------------------------------------ */
+/* Instances: the real component plus what the slave reported              */
+/* ------------------------------------------------------------------------ */
+struct instance {
+    fmi2Component real;
+    fmi2CallbackLogger logger;
+    fmi2ComponentEnvironment env;
+    char name[256];
+    int call_status;                 /* least status of the running call (slave's report) */
+    int failed;                      /* the slave can no longer step */
+    char why[2048];                  /* the slave's reason, for the fmi2Terminated answer */
+};
+static __thread struct instance *current;   /* the instance whose call is running here */
+
+/* Called by the slave (ctypes) during an FMI call on `current`. */
+FMI2_Export void pythonfmu_shim_report(int call_status, int failed, const char *why)
+{
+    struct instance *i = current;
+    if (!i) return;
+    if (call_status > i->call_status) i->call_status = call_status;
+    i->failed = failed;
+    copy(i->why, why ? why : "", sizeof i->why);
+}
+
 FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
                                           fmi2String fmuGUID, fmi2String fmuResourceLocation,
                                           const fmi2CallbackFunctions *functions,
                                           fmi2Boolean visible, fmi2Boolean loggingOn)
 {
     char err[8192] = "", info[8192] = "";
-    fmi2Component c;
+    struct instance *i, *outer;
     fmi2CallbackLogger logger = functions ? functions->logger : NULL;
     fmi2ComponentEnvironment env = functions ? functions->componentEnvironment : NULL;
     if (!ensure_loaded(err, sizeof err, info, sizeof info)) {
@@ -455,65 +489,120 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuT
         else
             fprintf(stderr, "%s: %s\n", SHIM_VERSION, warnings);
     }
-    c = real.fmi2Instantiate(instanceName, fmuType, fmuGUID, fmuResourceLocation, functions,
-                             visible, loggingOn);
-    return c;
+    i = (struct instance *)calloc(1, sizeof *i);
+    if (!i) return NULL;
+    i->logger = logger;
+    i->env = env;
+    copy(i->name, instanceName ? instanceName : "", sizeof i->name);
+    outer = current;
+    current = i;
+    i->real = real.fmi2Instantiate(instanceName, fmuType, fmuGUID, fmuResourceLocation,
+                                   functions, visible, loggingOn);
+    current = outer;
+    if (!i->real) {
+        free(i);
+        return NULL;
+    }
+    return (fmi2Component)i;
 }
 
 FMI2_Export void fmi2FreeInstance(fmi2Component c)
 {
-    if (loaded) real.fmi2FreeInstance(c);
+    struct instance *i = (struct instance *)c, *outer;
+    if (!loaded || !i) return;
+    outer = current;
+    current = i;
+    real.fmi2FreeInstance(i->real);
+    current = outer;
+    free(i);
 }
 
-/* Functions on an instance: only reachable after a successful fmi2Instantiate. */
-#define FORWARD(name, params, args)                        \
-    FMI2_Export fmi2Status name params                     \
-    {                                                      \
-        if (!loaded) return fmi2Error;                     \
-        return real.name args;                             \
+/* Functions on an instance: only reachable after a successful fmi2Instantiate. The
+ * status returned is the real one or the higher one the slave reported during it. */
+#define FORWARD(name, params, args)                                    \
+    FMI2_Export fmi2Status name params                                 \
+    {                                                                  \
+        struct instance *i = (struct instance *)c, *outer;             \
+        fmi2Status status_;                                            \
+        if (!loaded || !i) return fmi2Error;                           \
+        outer = current;                                               \
+        current = i;                                                   \
+        i->call_status = fmi2OK;                                       \
+        status_ = real.name args;                                      \
+        current = outer;                                               \
+        return status_ >= i->call_status ? status_ : (fmi2Status)i->call_status; \
     }
+#define RC (i->real)
 
 typedef const fmi2ValueReference cvr_t;
 FORWARD(fmi2SetDebugLogging, (fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cat[]),
-        (c, on, n, cat))
+        (RC, on, n, cat))
 FORWARD(fmi2SetupExperiment, (fmi2Component c, fmi2Boolean td, fmi2Real tol, fmi2Real t0,
-                              fmi2Boolean sd, fmi2Real t1), (c, td, tol, t0, sd, t1))
-FORWARD(fmi2EnterInitializationMode, (fmi2Component c), (c))
-FORWARD(fmi2ExitInitializationMode, (fmi2Component c), (c))
-FORWARD(fmi2Terminate, (fmi2Component c), (c))
-FORWARD(fmi2Reset, (fmi2Component c), (c))
-FORWARD(fmi2GetReal, (fmi2Component c, cvr_t vr[], size_t n, fmi2Real v[]), (c, vr, n, v))
-FORWARD(fmi2GetInteger, (fmi2Component c, cvr_t vr[], size_t n, fmi2Integer v[]), (c, vr, n, v))
-FORWARD(fmi2GetBoolean, (fmi2Component c, cvr_t vr[], size_t n, fmi2Boolean v[]), (c, vr, n, v))
-FORWARD(fmi2GetString, (fmi2Component c, cvr_t vr[], size_t n, fmi2String v[]), (c, vr, n, v))
-FORWARD(fmi2SetReal, (fmi2Component c, cvr_t vr[], size_t n, const fmi2Real v[]), (c, vr, n, v))
+                              fmi2Boolean sd, fmi2Real t1), (RC, td, tol, t0, sd, t1))
+FORWARD(fmi2EnterInitializationMode, (fmi2Component c), (RC))
+FORWARD(fmi2ExitInitializationMode, (fmi2Component c), (RC))
+FORWARD(fmi2Terminate, (fmi2Component c), (RC))
+FORWARD(fmi2Reset, (fmi2Component c), (RC))
+FORWARD(fmi2GetReal, (fmi2Component c, cvr_t vr[], size_t n, fmi2Real v[]), (RC, vr, n, v))
+FORWARD(fmi2GetInteger, (fmi2Component c, cvr_t vr[], size_t n, fmi2Integer v[]), (RC, vr, n, v))
+FORWARD(fmi2GetBoolean, (fmi2Component c, cvr_t vr[], size_t n, fmi2Boolean v[]), (RC, vr, n, v))
+FORWARD(fmi2GetString, (fmi2Component c, cvr_t vr[], size_t n, fmi2String v[]), (RC, vr, n, v))
+FORWARD(fmi2SetReal, (fmi2Component c, cvr_t vr[], size_t n, const fmi2Real v[]), (RC, vr, n, v))
 FORWARD(fmi2SetInteger, (fmi2Component c, cvr_t vr[], size_t n, const fmi2Integer v[]),
-        (c, vr, n, v))
+        (RC, vr, n, v))
 FORWARD(fmi2SetBoolean, (fmi2Component c, cvr_t vr[], size_t n, const fmi2Boolean v[]),
-        (c, vr, n, v))
+        (RC, vr, n, v))
 FORWARD(fmi2SetString, (fmi2Component c, cvr_t vr[], size_t n, const fmi2String v[]),
-        (c, vr, n, v))
-FORWARD(fmi2GetFMUstate, (fmi2Component c, fmi2FMUstate *s), (c, s))
-FORWARD(fmi2SetFMUstate, (fmi2Component c, fmi2FMUstate s), (c, s))
-FORWARD(fmi2FreeFMUstate, (fmi2Component c, fmi2FMUstate *s), (c, s))
-FORWARD(fmi2SerializedFMUstateSize, (fmi2Component c, fmi2FMUstate s, size_t *n), (c, s, n))
+        (RC, vr, n, v))
+FORWARD(fmi2GetFMUstate, (fmi2Component c, fmi2FMUstate *s), (RC, s))
+FORWARD(fmi2SetFMUstate, (fmi2Component c, fmi2FMUstate s), (RC, s))
+FORWARD(fmi2FreeFMUstate, (fmi2Component c, fmi2FMUstate *s), (RC, s))
+FORWARD(fmi2SerializedFMUstateSize, (fmi2Component c, fmi2FMUstate s, size_t *n), (RC, s, n))
 FORWARD(fmi2SerializeFMUstate, (fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t n),
-        (c, s, b, n))
+        (RC, s, b, n))
 FORWARD(fmi2DeSerializeFMUstate, (fmi2Component c, const fmi2Byte b[], size_t n,
-                                  fmi2FMUstate *s), (c, b, n, s))
+                                  fmi2FMUstate *s), (RC, b, n, s))
 FORWARD(fmi2GetDirectionalDerivative, (fmi2Component c, cvr_t u[], size_t nu, cvr_t k[],
                                        size_t nk, const fmi2Real dk[], fmi2Real du[]),
-        (c, u, nu, k, nk, dk, du))
+        (RC, u, nu, k, nk, dk, du))
 FORWARD(fmi2SetRealInputDerivatives, (fmi2Component c, cvr_t vr[], size_t n,
                                       const fmi2Integer order[], const fmi2Real v[]),
-        (c, vr, n, order, v))
+        (RC, vr, n, order, v))
 FORWARD(fmi2GetRealOutputDerivatives, (fmi2Component c, cvr_t vr[], size_t n,
                                        const fmi2Integer order[], fmi2Real v[]),
-        (c, vr, n, order, v))
-FORWARD(fmi2DoStep, (fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSet), (c, t, h, noSet))
-FORWARD(fmi2CancelStep, (fmi2Component c), (c))
-FORWARD(fmi2GetStatus, (fmi2Component c, const fmi2StatusKind s, fmi2Status *v), (c, s, v))
-FORWARD(fmi2GetRealStatus, (fmi2Component c, const fmi2StatusKind s, fmi2Real *v), (c, s, v))
-FORWARD(fmi2GetIntegerStatus, (fmi2Component c, const fmi2StatusKind s, fmi2Integer *v), (c, s, v))
-FORWARD(fmi2GetBooleanStatus, (fmi2Component c, const fmi2StatusKind s, fmi2Boolean *v), (c, s, v))
-FORWARD(fmi2GetStringStatus, (fmi2Component c, const fmi2StatusKind s, fmi2String *v), (c, s, v))
+        (RC, vr, n, order, v))
+FORWARD(fmi2DoStep, (fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSet),
+        (RC, t, h, noSet))
+FORWARD(fmi2CancelStep, (fmi2Component c), (RC))
+FORWARD(fmi2GetStatus, (fmi2Component c, const fmi2StatusKind s, fmi2Status *v), (RC, s, v))
+FORWARD(fmi2GetRealStatus, (fmi2Component c, const fmi2StatusKind s, fmi2Real *v), (RC, s, v))
+FORWARD(fmi2GetIntegerStatus, (fmi2Component c, const fmi2StatusKind s, fmi2Integer *v),
+        (RC, s, v))
+FORWARD(fmi2GetStringStatus, (fmi2Component c, const fmi2StatusKind s, fmi2String *v), (RC, s, v))
+
+/* fmi2Terminated answered here: pythonfmu's binary says true after any fmi2Discard. */
+FMI2_Export fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s,
+                                            fmi2Boolean *v)
+{
+    struct instance *i = (struct instance *)c, *outer;
+    fmi2Status status;
+    if (!loaded || !i) return fmi2Error;
+    if (s != fmi2Terminated) {
+        outer = current;
+        current = i;
+        status = real.fmi2GetBooleanStatus(i->real, s, v);
+        current = outer;
+        return status;
+    }
+    if (!v) return fmi2Error;
+    if (!i->failed) {
+        *v = fmi2False;  /* a recoverable refusal: the host may retry or go on */
+        return fmi2OK;
+    }
+    *v = fmi2True;
+    if (i->logger)
+        i->logger(i->env, i->name, fmi2Error, "logStatusError",
+                  "%s cannot go on (fmi2GetBooleanStatus(fmi2Terminated) answers fmi2Error, not "
+                  "a normal end of the simulation): %s", i->name, i->why[0] ? i->why : "?");
+    return fmi2Error;
+}

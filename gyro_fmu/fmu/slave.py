@@ -12,10 +12,17 @@ and implements `setup()` and `advance()` (and, when it keeps library objects,
   docs/fmi-notes.md) and ignores what setters return, so the only recoverable status
   it can deliver is fmi2Discard from fmi2DoStep. Bad values are therefore
   refused at set time with an error-level log message (the previous value is
-  kept) and the next fmi2DoStep returns fmi2Discard without advancing;
+  kept) and the next fmi2DoStep returns fmi2Discard without advancing; a host that
+  retries that very step (fmpy.simulate_fmu re-sends the same bad value) gets it
+  done with the kept value and fmi2Warning. The C loader (host_status.py) delivers
+  what pythonfmu cannot: fmi2Error for fmi2DoStep before initialization, and
+  fmi2Terminated answered false after a recoverable refusal, fmi2Error once the
+  instance cannot step (a failed initialization, parameter, state restore, or a step
+  whose Real outputs are not finite: the message names the inputs held over it);
 - saves and restores the complete state (every variable, the library objects'
   internals, the failure flags) as JSON, so get/set and serialize/deserialize
-  of FMU state are exact.
+  of FMU state are exact; a state is restored only if it has exactly the structure
+  this slave saves (state.py), never a crash.
 
 Inside an FMU, the base class also installs `pythonfmu_exit`: pythonfmu 0.7.0
 frees its interpreter guard twice at process exit, which aborts non-Python hosts
@@ -41,31 +48,9 @@ from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Initial, Fmi2Status
 from pythonfmu.variables import Integer, Real
 
-#: SI base-unit exponents of every unit the FMUs use (FMI 2.0 <BaseUnit>).
-UNITS: dict[str, dict[str, int]] = {
-    "1": {},
-    "m": {"m": 1},
-    "m/s": {"m": 1, "s": -1},
-    "m/s2": {"m": 1, "s": -2},
-    "N": {"kg": 1, "m": 1, "s": -2},
-    "kg": {"kg": 1},
-    "s": {"s": 1},
-    "Hz": {"s": -1},
-    "1/s": {"s": -1},
-    "1/s2": {"s": -2},
-    "rad/s": {"rad": 1, "s": -1},
-    "rad/s2": {"rad": 1, "s": -2},
-    "rad/s3": {"rad": 1, "s": -3},
-    "rad2/s": {"rad": 2, "s": -1},
-    "rad2/s3": {"rad": 2, "s": -3},
-    "rad2/s5": {"rad": 2, "s": -5},
-    "rad": {"rad": 1},
-    "V": {"kg": 1, "m": 2, "s": -3, "A": -1},
-    "V/m": {"kg": 1, "m": 1, "s": -3, "A": -1},
-    "m/V": {"kg": -1, "m": -1, "s": 3, "A": 1},
-    "m/s2/V": {"kg": -1, "m": -1, "s": 1, "A": 1},
-    "1/(m2.s2)": {"m": -2, "s": -2},
-}
+from . import state as fmu_state
+from .host_status import ERROR, WARNING, HostStatus, host_library_mismatch
+from .units import UNITS
 
 _FMAX = sys.float_info.max
 
@@ -86,6 +71,7 @@ class Var:
     min: float | None = None
     max: float | None = None
     nominal: float | None = None
+    min_exclusive: bool = False  #: min itself is refused too (FMI's min is inclusive)
 
     @property
     def is_parameter(self) -> bool:
@@ -97,8 +83,11 @@ class Var:
             what = "parameter" if self.is_parameter else self.causality
             return (f"{what} {self.name}={value!r} is not finite: give a finite value "
                     f"in {self.unit or '1'}")
-        if self.min is not None and value < self.min:
-            return f"{self.name}={value!r} is below its minimum {self.min:g}: use >= {self.min:g}"
+        if self.min is not None and (value < self.min or
+                                     (self.min_exclusive and value == self.min)):
+            op = ">" if self.min_exclusive else ">="
+            where = "is below its" if value < self.min else "is its exclusive"
+            return f"{self.name}={value!r} {where} minimum {self.min:g}: use {op} {self.min:g}"
         if self.max is not None and value > self.max:
             return f"{self.name}={value!r} is above its maximum {self.max:g}: use <= {self.max:g}"
         return None
@@ -121,6 +110,7 @@ class GyroSlave(Fmi2Slave):
         self.failed: str | None = None  #: set when initialization failed; every step refused
         self.pending_error: str | None = None  #: refused set; the next step is discarded
         self.initialized = False
+        self.discarded_at: tuple[float, str] | None = None  #: (t, refusal) of that discard
         self.start_time = 0.0
         self.time = 0.0
         self._spec = {v.name: v for v in self.VARIABLES}
@@ -136,6 +126,10 @@ class GyroSlave(Fmi2Slave):
             if not (spec := self._spec[name]).is_parameter
         }
         self._getters: dict[tuple[int, ...], Any] = {}
+        outs = [v.name for v in self.VARIABLES if v.causality == "output" and not v.integer]
+        self._outputs = itemgetter(*outs) if len(outs) > 1 else (lambda d, n=outs: [d[n[0]]])
+        self._host = HostStatus(self.resources, self.modelName)
+        self._host_failed: str | None = None  #: what the loader was last told
         if self.resources:  # inside an FMU: defuse pythonfmu 0.7.0's exit-time double free
             mismatch = host_library_mismatch(Path(self.resources))
             if mismatch:
@@ -184,6 +178,14 @@ class GyroSlave(Fmi2Slave):
         if state is not None and self.state_holder:
             getattr(self, self.state_holder).set_state(state)
 
+    #: Keys of the model state that follow from the parameters: must equal a fresh setup's.
+    fixed_model_keys: ClassVar[tuple[str, ...]] = ()
+
+    def model_state_problem(self, state: Any) -> str | None:
+        """What is wrong with a structurally fitting model state (values, e.g. an index
+        into a buffer), None if fine; called before restore_model_state."""
+        return None
+
     # --- FMI callbacks -------------------------------------------------------
     def setup_experiment(
         self, start_time: float, stop_time: float | None = None, tolerance: float | None = None
@@ -207,26 +209,67 @@ class GyroSlave(Fmi2Slave):
             self.initialized = True
         except Exception as exc:
             self._fail("initialization", exc)
+        self._sync_host()
 
     def do_step(self, current_time: float, step_size: float) -> bool:
+        status = 0
         try:
             if self.failed is not None:
                 raise ValueError(f"cannot step: {self.failed}")
+            if not self.initialized:
+                status = ERROR  # an illegal call sequence, not a refusal to retry
+                raise ValueError("fmi2DoStep before fmi2ExitInitializationMode: initialize "
+                                 "the instance (or restore an initialized FMU state) first")
             if self.pending_error is not None:
                 message, self.pending_error = self.pending_error, None
-                raise ValueError(f"step refused: {message}")
+                if self.discarded_at != (current_time, message):
+                    self.discarded_at = (current_time, message)
+                    raise ValueError(f"step refused: {message}")
+                status = WARNING  # the host retried the same step with the same value
+                self.log(f"{self.modelName}: step at t={current_time:.9g} s done with the "
+                         f"kept value after the same refusal again: {message}",
+                         Fmi2Status.warning)
             if not (math.isfinite(step_size) and step_size > 0.0):
                 raise ValueError(
                     f"communication step size {step_size!r} s must be > 0 and finite"
                 )
             self.advance(current_time, step_size)
+            if not math.isfinite(sum(self._outputs(self.__dict__))):
+                self._not_finite(current_time, step_size)
             self.time = current_time + step_size
+            self.discarded_at = None
         except Exception as exc:
             self.log(f"{self.modelName}: step at t={current_time:.9g} s discarded: {exc}",
                      Fmi2Status.discard)
             self._log_traceback()
+            self._sync_host(status)
             return False
+        if status:
+            self._sync_host(status)
         return True
+
+    def _not_finite(self, t: float, h: float) -> None:
+        """Fail the instance after a step that made a Real output inf or NaN (the state has
+        advanced into it: only a restore of an earlier FMU state goes on), naming the
+        outputs and the inputs held over the step, so the error is this FMU's."""
+        bad = ", ".join(f"{v.name}={getattr(self, v.name)!r}" for v in self.VARIABLES
+                        if v.causality == "output" and not v.integer
+                        and not math.isfinite(getattr(self, v.name)))
+        held = ", ".join(f"{v.name}={getattr(self, v.name)!r}" for v in self.VARIABLES
+                         if v.causality == "input") or "no inputs"
+        self.failed = (f"the step from t={t:.9g} s over {h!r} s gave non-finite outputs "
+                       f"({bad}) with {held} held over the step: the inputs or parameters "
+                       "are out of this model's numeric range; restore an earlier FMU state "
+                       "with other inputs, or instantiate anew")
+        self.log(f"{self.modelName}: {self.failed}", Fmi2Status.error)
+        self._outputs_not_a_number()
+        raise ValueError(self.failed)
+
+    def _sync_host(self, call_status: int = 0) -> None:
+        """Tell the C loader this call's status and whether the instance can still step."""
+        if call_status or self.failed != self._host_failed:
+            self._host.report(call_status, self.failed)
+            self._host_failed = self.failed
 
     def get_real(self, vrs: list[int]) -> list[float]:
         """Values of the Real variables vrs: one C-level gather per call (pythonfmu's own
@@ -282,6 +325,7 @@ class GyroSlave(Fmi2Slave):
                     self.pending_error = str(exc)
                 self.log(message, Fmi2Status.error)
                 self._log_traceback()
+                self._sync_host()
 
     # --- FMU state -----------------------------------------------------------
     def _get_fmu_state(self) -> dict[str, Any]:
@@ -298,23 +342,12 @@ class GyroSlave(Fmi2Slave):
             return {"invalid": str(exc)}
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
+        """Restore a saved state; anything this slave did not save is refused (state.py)."""
         try:
-            if "invalid" in state:
-                raise ValueError(f"that state was not saved: {state['invalid']}")
-            for name, value in state["variables"].items():
-                setattr(self, name, value)
-            self.failed, self.pending_error, initialized = state["flags"]
-            self.start_time, self.time = state["times"]
-            if initialized:
-                with warnings.catch_warnings():  # already reported at initialization
-                    warnings.simplefilter("ignore")
-                    self.setup()  # rebuild the library objects from the restored parameters
-                self.restore_model_state(state["model"])
-                for name, value in state["variables"].items():  # outputs as saved
-                    setattr(self, name, value)
-            self.initialized = initialized
+            fmu_state.restore(self, state)
         except Exception as exc:
             self._fail("restoring the FMU state", exc)
+        self._sync_host()
 
     @staticmethod
     def _fmu_state_to_bytes(state: dict[str, Any]) -> bytes:
@@ -377,30 +410,6 @@ class GyroSlave(Fmi2Slave):
                 unknown.set("dependencies", "")
                 SubElement(initial, "Unknown", index=unknown.get("index"))
         return root
-
-
-def host_library_mismatch(resources: Path) -> str | None:
-    """Why the gyro_fmu running this FMU is not the one it ships, or None.
-
-    Python caches modules per process: in a host that already imported gyro_fmu (our
-    fmpy master, a user's script), every FMU runs the host's copy, not its own. Same
-    version, same code; another version is a silent substitution worth a warning.
-    """
-    import re
-
-    from .. import __file__ as running_file
-    from .. import __version__ as running
-
-    shipped = resources / "gyro_fmu" / "__init__.py"
-    if not shipped.is_file() or Path(running_file).resolve() == shipped.resolve():
-        return None
-    match = re.search(r'__version__ = "([^"]+)"', shipped.read_text())
-    if match is None or match.group(1) == running:
-        return None
-    return (f"this FMU ships gyro_fmu {match.group(1)}, but the host process had already "
-            f"imported gyro_fmu {running} ({Path(running_file).parent}), which runs instead "
-            f"(Python caches modules per process): install gyro_fmu {match.group(1)} in "
-            f"the host, or rebuild the FMUs with {running}")
 
 
 def spec_is_parameter(slave: GyroSlave, vr: int) -> bool:
