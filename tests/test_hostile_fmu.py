@@ -1,0 +1,235 @@
+"""Hostile hosts and inputs, through real FMUs and fmpy: crafted states, restore of an
+un-initialized state, fmi2Terminated after a refusal (fmpy.simulate_fmu itself), outputs
+that are not finite, parameter messages, and a short fuzz run of mutated states."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import fmpy
+import numpy as np
+import pytest
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import fmi2Terminated
+from fmu_harness import Instance
+
+from gyro_fmu.model.parameters import ParameterError, preset, validate_for_plant
+
+H = 5e-6
+
+
+def _saved(inst: Instance) -> dict:
+    state = inst.slave.getFMUstate()
+    blob = json.loads(bytes(inst.slave.serializeFMUstate(state)))
+    inst.slave.freeFMUstate(state)
+    return blob
+
+
+def _restore(inst: Instance, blob: dict) -> None:
+    state = inst.slave.deSerializeFMUstate(json.dumps(blob).encode())
+    inst.slave.setFMUstate(state)
+    inst.slave.freeFMUstate(state)
+
+
+def _crafted(kind: str, s: dict) -> dict:
+    v = s["variables"]
+    if kind == "methods":
+        v["get_real"], v["do_step"] = 1.0, 2
+    elif kind == "method-instead":
+        del v["ux"]
+        v["get_real"] = 0.0
+    elif kind == "integer-float":
+        v["seed"] = 1.5
+    elif kind == "parameter-range":
+        v["m"] = -1.0
+    elif kind == "input-nan":
+        v["Omega_z"] = float("nan")
+    elif kind == "flags":
+        s["flags"] = [None, None, "yes"]
+    elif kind == "times":
+        s["times"] = [0.0, float("inf")]
+    elif kind == "extra-key":
+        s["extra"] = 1
+    elif kind == "model-length":
+        s["model"]["s"] = [0.0, 0.0, 0.0]
+    elif kind == "model-key":
+        s["model"]["rng"]["state"] = {"state": 1}
+    elif kind == "model-type":
+        s["model"]["held"][1] = "x"
+    elif kind == "model-nan":
+        s["model"]["s"][0] = float("nan")
+    return s
+
+
+CRAFTED = {
+    "methods": "unknown ['do_step', 'get_real']",
+    "method-instead": "unknown ['get_real'], missing ['ux']",
+    "integer-float": "Integer variable seed must be an integer",
+    "parameter-range": "m=-1.0 is below its minimum 0: use > 0",
+    "input-nan": "input Omega_z=nan is not finite",
+    "flags": "flags must be [str|null, str|null, bool]",
+    "times": "times must be two finite numbers",
+    "extra-key": "unexpected ['extra']",
+    "model-length": "model.s must be a list of length 4, got length 3",
+    "model-key": "model.rng.state must have the keys",
+    "model-type": "model.held[1] must be float, got str",
+    "model-nan": "model.s[0]=nan is not finite",
+}
+
+
+@pytest.mark.parametrize("kind", list(CRAFTED))
+def test_a_crafted_plant_state_is_refused_by_name_and_never_crashes(models_dir, kind):
+    """Only the variables, flags, times and model structure the slave saves are accepted;
+    anything else: fmi2Error-level log naming it, outputs NaN, steps discarded, and
+    terminate/free work (a state naming get_real/do_step used to give fmi2Fatal)."""
+    inst = Instance(models_dir / "GyroPlant.fmu", "crafted")
+    inst.set({"ux": 1e-7, "Omega_z": 1.0})
+    assert inst.step(H) == 0
+    _restore(inst, _crafted(kind, _saved(inst)))
+    errors = inst.messages(min_status=3)
+    assert "restoring the FMU state failed" in errors and CRAFTED[kind] in errors, errors
+    outputs = [n for n, v in inst.vars.items() if v.causality == "output"]
+    assert all(math.isnan(x) for x in inst.get(outputs))
+    assert inst.step(H) == 2
+    with pytest.raises(FMICallException):  # cannot go on: not a normal end either
+        inst.slave.getBooleanStatus(fmi2Terminated)
+    inst.close()
+
+
+def test_a_crafted_observer_state_of_another_shape_is_refused(models_dir):
+    """A covariance of the wrong size never reaches the numba kernels."""
+    inst = Instance(models_dir / "GyroObserver.fmu", "crafted-obs")
+    assert inst.step(H) == 0
+    s = _saved(inst)
+    s["model"]["P"] = [row[:-1] for row in s["model"]["P"][:-1]]
+    _restore(inst, s)
+    assert "model.P must be a list of length" in inst.messages(min_status=3)
+    assert inst.step(H) == 2
+    inst.close()
+
+
+def test_a_never_initialized_state_un_initializes_the_instance(models_dir):
+    """Restoring a state saved before initialization drops the library model: doStep is
+    refused by name (fmi2Error), and initialization makes the instance step again."""
+    inst = Instance(models_dir / "GyroPlant.fmu", "uninit", initialize=False)
+    early = inst.slave.getFMUstate()
+    assert inst.step(H) == 3
+    assert "fmi2DoStep before fmi2ExitInitializationMode" in inst.messages()
+    inst.initialize()
+    inst.set({"ux": 1e-7, "Omega_z": 1.0})
+    for _ in range(5):
+        assert inst.step(H) == 0
+    inst.slave.setFMUstate(early)
+    inst.log.messages.clear()
+    assert inst.step(H) == 3  # it used to return fmi2OK and go on from the old state
+    assert "fmi2DoStep before fmi2ExitInitializationMode" in inst.messages()
+    assert "no attribute" not in inst.messages()
+    inst.initialize()
+    inst.t = 0.0
+    assert inst.step(H) == 0
+    inst.close()
+
+
+def _input_table(rows: dict) -> np.ndarray:
+    t = np.linspace(0.0, 1000 * H, 1001)
+    columns = {"ux": 1e-7 * np.sin(2e4 * t), "uy": 0 * t, "Omega_z": 0 * t + 1.0}
+    for (name, k), value in rows.items():
+        columns[name][k] = value
+    return np.array(list(zip(t, *columns.values(), strict=True)),
+                    dtype=[("time", float)] + [(n, float) for n in columns])
+
+
+def test_simulate_fmu_goes_on_after_a_recoverable_bad_input(models_dir):
+    """One NaN input row: the step is discarded once (fmi2Terminated false), fmpy retries it
+    with the same NaN, and the FMU does it with the kept value (fmi2Warning). The run
+    reaches the stop time (it used to end silently at 502 of 1001 rows)."""
+    messages = []
+    result = fmpy.simulate_fmu(str(models_dir / "GyroPlant.fmu"), stop_time=1000 * H,
+                               step_size=H, output_interval=H, timeout=60,
+                               input=_input_table({("ux", 500): float("nan")}),
+                               debug_logging=True,
+                               logger=lambda *a: messages.append(a[4].decode()))
+    assert math.isclose(result["time"][-1], 1000 * H)
+    assert len(np.unique(result["time"])) == 1001
+    assert np.isfinite(result["x"]).all()
+    text = "\n".join(messages)
+    assert "input ux=nan is not finite" in text and "done with the kept value" in text
+
+
+@pytest.mark.parametrize(("start", "rows", "cause"), [
+    ({"m": -1.0}, {}, "m=-1.0 is below its minimum 0: use > 0"),
+    ({}, {("Omega_z", 300): 1e300}, "Omega_z=1e+300 held over the step"),
+])
+def test_simulate_fmu_raises_when_the_fmu_cannot_go_on(models_dir, start, rows, cause):
+    """A refused parameter or a step that overflowed: fmi2Terminated is answered with
+    fmi2Error and the cause logged, so fmpy raises (m=-1 used to return 2 rows, no error)."""
+    messages = []
+    with pytest.raises(FMICallException, match="fmi2GetBooleanStatus failed"):
+        fmpy.simulate_fmu(str(models_dir / "GyroPlant.fmu"), stop_time=1000 * H,
+                          step_size=H, output_interval=H, timeout=60, start_values=start,
+                          input=_input_table(rows),
+                          logger=lambda *a: messages.append(a[4].decode()))
+    assert any("cannot go on" in m and cause in m for m in messages), messages
+
+
+def test_a_recoverable_refusal_is_not_termination(models_dir):
+    inst = Instance(models_dir / "GyroPlant.fmu", "recoverable")
+    inst.set({"ux": float("nan")})
+    assert inst.step(H) == 2
+    assert inst.slave.getBooleanStatus(fmi2Terminated) is False  # pythonfmu said True
+    assert inst.step(H) == 0
+    inst.close()
+
+
+def test_non_finite_outputs_are_the_error_of_the_fmu_that_made_them(models_dir):
+    """Omega_z = 1e300 is finite, so the input is accepted; the step makes NaN outputs:
+    refused by the plant, naming the inputs it held (it used to return fmi2OK with NaN
+    and the observer downstream was blamed for x_meas=nan)."""
+    inst = Instance(models_dir / "GyroPlant.fmu", "overflow")
+    inst.set({"ux": 1e-7, "Omega_z": 1e300})
+    assert inst.step(H) == 2
+    text = inst.messages(min_status=3)
+    assert "GyroPlant: the step from t=0 s over 5e-06 s gave non-finite outputs (x=nan" in text
+    assert "ux=1e-07, uy=0.0, Omega_z=1e+300 held over the step" in text
+    assert inst.step(H) == 2
+    inst.close()
+
+
+PARAMETER_MESSAGES = [  # (override, library ParameterError text, FMU log text)
+    ({"m": -1.0}, "mass m=-1.0 kg must be > 0", "m=-1.0 is below its minimum 0: use > 0"),
+    ({"m": 0.0}, "mass m=0.0 kg must be > 0", "m=0.0 is its exclusive minimum 0: use > 0"),
+    ({"dxx": 1e300}, "dxx=1e+300 1/s is beyond |dxx| <= 1e+10 1/s",
+     "dxx=1e+300 is above its maximum 1e+10: use <= 1e+10"),
+    ({"kxx": -1.0}, "x-axis stiffness kxx=-1 1/s2 must be > 0",
+     "kxx=-1.0 is below its minimum 0: use > 0"),
+    ({"kyy": -1.0}, "y-axis stiffness kyy=-1 1/s2 must be > 0",
+     "kyy=-1.0 is below its minimum 0: use > 0"),
+]
+
+
+@pytest.mark.parametrize(("override", "library", "fmu"), PARAMETER_MESSAGES,
+                         ids=[str(r[0]) for r in PARAMETER_MESSAGES])
+def test_parameter_messages_name_the_real_cause(models_dir, override, library, fmu):
+    with pytest.raises(ParameterError) as err:
+        validate_for_plant(preset(**override))
+    assert library in str(err.value)
+    assert "math range error" not in str(err.value) and "kxy" not in str(err.value)
+    inst = Instance(models_dir / "GyroPlant.fmu", "params", override)
+    assert inst.step(H) == 2
+    assert fmu in inst.messages(min_status=3)
+    inst.close()
+
+
+def test_fuzzed_states_never_crash_the_host(models_dir):
+    """50 mutated states per FMU (bit flips, truncation, JSON-aware mutations), each
+    deserialize -> set -> doStep -> terminate -> free in worker subprocesses."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from fuzz_states import run
+
+    rows = run(["GyroPlant", "GyroObserver"], 50, seed=1, batch=50, models=models_dir)
+    for row in rows:
+        assert row["trials"] == 50 and row["crashes"] == 0, row
+        assert row["refused"] >= 40, row
