@@ -343,11 +343,13 @@ class GyroSlave(Fmi2Slave):
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
         """Restore a saved state; anything this slave did not save is refused (state.py)."""
+        status = 0
         try:
             fmu_state.restore(self, state)
         except Exception as exc:
             self._fail("restoring the FMU state", exc)
-        self._sync_host()
+            status = ERROR  # through the loader: fmi2SetFMUstate returns fmi2Error
+        self._sync_host(status)
 
     @staticmethod
     def _fmu_state_to_bytes(state: dict[str, Any]) -> bytes:
