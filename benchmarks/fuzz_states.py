@@ -6,9 +6,13 @@ the slave's method names as variable names, huge / NaN / infinite numbers, wrong
 lengths, nested garbage). Every trial runs deserialize -> set state -> doStep ->
 terminate -> free on a fresh instance through fmpy, in a worker subprocess, so a crash
 (a signal, an abort) is seen as the worker's exit code; the parent restarts after the
-trial that crashed. A trial is "refused" when the FMU logged that restoring the state
-failed, else "accepted"; for accepted ones the table says whether the outputs after the
-step are finite.
+trial that crashed. "crashes" are workers killed by a signal (segfault, abort);
+"fatal" are workers ended by an FMI call that failed where the host cannot expect it
+(fmi2Fatal from getReal, terminate or free). A trial is "refused" when the FMU logged
+that restoring the state failed, else "accepted"; for accepted ones the table says
+whether the step went (acc.stepped) and whether the outputs after it are finite.
+Run it with an older gyro_fmu first on PYTHONPATH (from a folder other than the
+checkout) to fuzz that version: FMUs run the host's gyro_fmu when it has one.
 
     python benchmarks/fuzz_states.py --trials 1000               # all six FMUs
     python benchmarks/fuzz_states.py --trials 50 --fmu GyroPlant --fmu GyroObserver
@@ -172,7 +176,7 @@ def _worker(fmu: Path, seed: int, first: int, count: int, h: float) -> None:
 
 # --- parent: batches in subprocesses, crash detection -----------------------
 def fuzz(fmu: Path, trials: int, seed: int, batch: int, h: float) -> dict:
-    row = {"fmu": fmu.stem, "trials": 0, "refused": 0, "accepted": 0, "crashes": 0,
+    row = {"fmu": fmu.stem, "trials": 0, "refused": 0, "accepted": 0, "crashes": 0, "fatal": 0,
            "accepted_finite": 0, "accepted_stepped": 0, "crashed_trials": []}
     i = 0
     while i < trials:
@@ -193,12 +197,13 @@ def fuzz(fmu: Path, trials: int, seed: int, batch: int, h: float) -> dict:
                     row["accepted_finite"] += int(parts[4])
                 last = int(parts[1]) + 1
         if proc.returncode != 0:
+            kind = "fatal" if proc.returncode == 1 else "crashes"
             if last >= i + n:  # every trial done: the crash was at exit
-                row["crashes"] += 1
+                row[kind] += 1
                 row["crashed_trials"].append(f"exit after {last - 1}: {proc.returncode}")
             else:
                 row["trials"] += 1
-                row["crashes"] += 1
+                row[kind] += 1
                 row["crashed_trials"].append(f"{last}: exit {proc.returncode} "
                                              f"{proc.stderr.strip()[-200:]}")
                 last += 1
@@ -227,10 +232,11 @@ def main() -> None:
         print(json.dumps(rows))
         return
     print(f"{'FMU':14} {'trials':>6} {'refused':>7} {'accepted':>8} {'crashes':>7} "
-          f"{'acc.stepped':>11} {'acc.finite':>10}")
+          f"{'fatal':>5} {'acc.stepped':>11} {'acc.finite':>10}")
     for r in rows:
         print(f"{r['fmu']:14} {r['trials']:6} {r['refused']:7} {r['accepted']:8} "
-              f"{r['crashes']:7} {r['accepted_stepped']:11} {r['accepted_finite']:10}")
+              f"{r['crashes']:7} {r['fatal']:5} {r['accepted_stepped']:11} "
+              f"{r['accepted_finite']:10}")
         for c in r["crashed_trials"]:
             print(f"  crash at trial {c}")
 
