@@ -20,7 +20,7 @@ from xml.etree.ElementTree import Element, SubElement, fromstring, tostring
 
 import numpy as np
 from fmpy import read_model_description, simulate_fmu
-from fmpy.util import read_csv, validate_signal, write_csv
+from fmpy.util import validate_signal, write_csv
 
 from ..errors import GyroFmuError
 from .build import load_slave
@@ -108,20 +108,90 @@ class SignalCheck:
         return self.outliers == 0
 
 
-def _read_related(z: zipfile.ZipFile, tmp: Path) -> dict[str, np.ndarray]:
+_MAX_MEMBER = 64 << 20  # bytes: a reference of this size is far past any default run
+
+
+def _member(z: zipfile.ZipFile, name: str) -> bytes:
+    """One archive member read into memory (at most _MAX_MEMBER bytes, CRC checked)."""
     try:
-        manifest = fromstring(z.read(MANIFEST))
+        with z.open(name) as f:
+            data = f.read(_MAX_MEMBER + 1)
     except KeyError:
-        raise ReferenceResultError(
-            f"no {MANIFEST}: this FMU carries no reference results") from None
-    tables = {}
+        raise ReferenceResultError(f"{name} is named but not in the archive: rebuild the "
+                                   "FMU with `gyro-fmu build`") from None
+    if len(data) > _MAX_MEMBER:
+        raise ReferenceResultError(f"{name} is over {_MAX_MEMBER >> 20} MiB: not a reference")
+    return data
+
+
+def parse_csv(data: bytes, name: str) -> np.ndarray:
+    """A cross-check CSV (quoted header, one float per cell) from bytes: fmpy's read_csv
+    takes only a file name, and nothing taken from an archive is written to disk."""
+    try:
+        lines = data.decode("utf-8").splitlines()
+        header = [h.strip().strip('"') for h in lines[0].split(",")]
+        rows = [tuple(float(c) for c in line.split(",")) for line in lines[1:] if line.strip()]
+        if len(set(header)) != len(header) or header[0] != "time":
+            raise ValueError(f"header {header!r} must start with time and not repeat a name")
+        if any(len(r) != len(header) for r in rows):
+            raise ValueError(f"a row has not the {len(header)} cells of the header")
+        return np.array(rows, dtype=[(h, float) for h in header])
+    except (ValueError, IndexError, UnicodeDecodeError) as exc:
+        raise ReferenceResultError(f"{name} is not a readable CSV ({exc}): rebuild the FMU "
+                                   "with `gyro-fmu build`") from None
+
+
+def _read_related(z: zipfile.ZipFile) -> dict[str, np.ndarray]:
+    """The manifest's tables by role, read by name from inside the ls-ref folder only: a
+    source with a folder part (../, /, \\) could name any file, so it is refused."""
+    try:
+        manifest = fromstring(_member(z, MANIFEST))
+    except ReferenceResultError:
+        if MANIFEST not in z.namelist():
+            raise ReferenceResultError(
+                f"no {MANIFEST}: this FMU carries no reference results") from None
+        raise
+    except Exception as exc:  # ParseError, or expat's errors on entity tricks
+        raise ReferenceResultError(f"{MANIFEST} is not XML ({exc}): rebuild the FMU") from None
+    tables: dict[str, np.ndarray] = {}
     for rel in manifest.iter("Related"):
-        path = tmp / rel.get("source")
-        path.write_bytes(z.read(f"{LS_REF_DIR}/{rel.get('source')}"))
-        tables[rel.get("role")] = read_csv(str(path))
+        source, role = rel.get("source") or "", rel.get("role")
+        if (not source or source in (".", "..") or any(c in source for c in "/\\:\0")
+                or source != source.strip()):
+            raise ReferenceResultError(
+                f"{MANIFEST} names source {source!r}: a reference must be a plain file name "
+                f"inside {LS_REF_DIR}/; the FMU is damaged or not trustworthy")
+        if role in tables:
+            raise ReferenceResultError(f"{MANIFEST} names role {role!r} twice")
+        if role in ("result", "input"):
+            tables[role] = parse_csv(_member(z, f"{LS_REF_DIR}/{source}"), source)
     if "result" not in tables:
         raise ReferenceResultError(f"{MANIFEST} names no reference result (role='result')")
     return tables
+
+
+def check_coverage(table: np.ndarray, what: str, names: list[str],
+                   stop_time: float, step: float) -> None:
+    """Refuse a table that does not cover the run it claims: one row per communication
+    point of the default experiment, time strictly increasing from 0 to stop_time,
+    exactly the columns `names`, finite values. A cut table would compare nothing."""
+    n = round(stop_time / step) + 1
+    columns = list(table.dtype.names[1:])
+    problems = []
+    if set(columns) != set(names):
+        missing, unknown = sorted(set(names) - set(columns)), sorted(set(columns) - set(names))
+        problems.append(f"columns missing {missing}, unknown {unknown}")
+    t = np.asarray(table["time"], dtype=float)
+    if t.size != n:
+        problems.append(f"{t.size} rows for the {n} communication points")
+    elif not (np.all(np.diff(t) > 0) and abs(t[0]) <= 1e-9 * step
+              and np.allclose(t, np.arange(n) * step, rtol=1e-9, atol=1e-9 * step)):
+        problems.append(f"time not 0, {step:g}, ... {stop_time:g} s strictly increasing")
+    if not all(np.all(np.isfinite(table[c])) for c in table.dtype.names):
+        problems.append("values that are not finite")
+    if problems:
+        raise ReferenceResultError(f"reference {what} does not cover the default run: "
+                                   + "; ".join(problems) + ": rebuild the FMU")
 
 
 def validate_reference(fmu: Path, dy: float = 1e-6, dx: int = 1) -> list[SignalCheck]:
@@ -133,20 +203,55 @@ def validate_reference(fmu: Path, dy: float = 1e-6, dx: int = 1) -> list[SignalC
     (no widening in time): the communication points are exact, and a 2.5 kHz tone
     sampled at 200 kHz moves by a quarter of its amplitude in 3 samples, so any
     time widening would hide a 0.1% model change (measured by the tests).
+    Raises ReferenceResultError (with the reason) for an archive, description or
+    reference that cannot be used and for a simulation the FMU refuses.
     """
     fmu = Path(fmu)
-    _, stop_time, step = _experiment(fmu)
-    with tempfile.TemporaryDirectory() as tmp, zipfile.ZipFile(fmu) as z:
-        tables = _read_related(z, Path(tmp))
+    if not fmu.is_file():
+        raise ReferenceResultError(f"no FMU file there ({'a folder' if fmu.is_dir() else 'missing'}"
+                                   "): name an .fmu file")
+    try:
+        with zipfile.ZipFile(fmu) as z:
+            bad = z.testzip()  # every member's CRC, before any code in it is loaded
+            if bad is not None:
+                raise ReferenceResultError(f"member {bad} fails its CRC check: the archive is "
+                                           "damaged; rebuild or copy it again")
+            tables = _read_related(z)
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError, ValueError, OSError) as exc:
+        raise ReferenceResultError(f"not a readable FMU archive ({exc}): rebuild it with "
+                                   "`gyro-fmu build` or copy it again") from None
+    try:
+        md = read_model_description(str(fmu))
+        _, stop_time, step = _experiment(fmu)
+    except ReferenceResultError:
+        raise
+    except Exception as exc:  # fmpy raises bare Exception, KeyError, lxml errors
+        raise ReferenceResultError(f"modelDescription.xml unusable ({exc}): rebuild the "
+                                   "FMU") from None
+    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
+    inputs = [v.name for v in md.modelVariables if v.causality == "input"]
     reference = tables["result"]
-    result = _simulate(fmu, tables.get("input"), stop_time, step)
+    check_coverage(reference, "result", outputs, stop_time, step)
+    if inputs or "input" in tables:
+        if "input" not in tables:
+            raise ReferenceResultError(f"the FMU has inputs {inputs} but no reference input "
+                                       "table (role='input'): rebuild the FMU")
+        check_coverage(tables["input"], "input", inputs, stop_time, step)
+    try:
+        result = _simulate(fmu, tables.get("input"), stop_time, step)
+    except Exception as exc:  # the FMU's refusal, as fmpy reports it
+        raise ReferenceResultError(f"the simulation of the default experiment failed: "
+                                   f"{exc}") from None
     t_ref = np.array(reference["time"], dtype=float)
     checks = []
-    for var in reference.dtype.names[1:]:
+    for var in outputs:
         y_ref = np.array(reference[var], dtype=float)
         y = np.array(result[var], dtype=float)
+        if y.shape != y_ref.shape or not np.all(np.isfinite(y)):
+            checks.append(SignalCheck(var, int(y_ref.size), int(y_ref.size), float("inf")))
+            continue
         _, _, _, outside = validate_signal(result["time"], y, t_ref.copy(), y_ref,
                                            num=t_ref.size, dx=dx, dy=dy)
-        deviation = float(np.max(np.abs(y - y_ref))) if y.shape == y_ref.shape else float("inf")
-        checks.append(SignalCheck(var, int(np.sum(outside)), int(y.size), deviation))
+        checks.append(SignalCheck(var, int(np.sum(outside)), int(y.size),
+                                  float(np.max(np.abs(y - y_ref)))))
     return checks
