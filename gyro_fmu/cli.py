@@ -20,24 +20,9 @@ def _cmd_build(args: argparse.Namespace) -> int:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from .fmu.reference import ReferenceResultError, validate_reference
+    from .fmu.validate import validate_files
 
-    failed = 0
-    for fmu in args.fmu:
-        try:
-            checks = validate_reference(Path(fmu), dy=args.dy, dx=args.dx)
-        except (ReferenceResultError, FileNotFoundError) as exc:
-            print(f"{fmu}: FAIL: {exc}")
-            failed += 1
-            continue
-        print(f"{fmu}: band dy={args.dy:g} of each signal's range, dx={args.dx} samples")
-        for c in checks:
-            print(f"  {'pass' if c.passed else 'FAIL'}  {c.name:<16} {c.outliers:>6} of "
-                  f"{c.samples} samples outside, max |deviation| {c.max_abs_deviation:.3g}")
-        failed += sum(not c.passed for c in checks)
-    print("all outputs match their reference results" if not failed
-          else f"{failed} check(s) failed")
-    return 1 if failed else 0
+    return validate_files(args.fmu, dy=args.dy, dx=args.dx)
 
 
 def _cmd_doctor(args: argparse.Namespace) -> int:
