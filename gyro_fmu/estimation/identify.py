@@ -37,6 +37,7 @@ starting from the previous solution.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -86,7 +87,17 @@ def read_record(path: Path, measured_pair: int = 1, stop_time: float | None = No
     missing = [c for c in need if c not in columns]
     if missing:
         raise IdentificationError(f"{path}: missing column(s) {missing}; it has {columns}")
-    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    try:
+        with warnings.catch_warnings():  # "input contained no data": checked below
+            warnings.simplefilter("ignore", UserWarning)
+            data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    except ValueError as exc:  # a cell that is not a number, rows of unequal length
+        raise IdentificationError(f"{path} is not a numeric CSV ({exc})") from None
+    if data.shape[0] == 0:
+        raise IdentificationError(f"{path} has a header but no rows: give a recorded run")
+    if data.shape[1] != len(columns):
+        raise IdentificationError(f"{path}: rows of {data.shape[1]} values for "
+                                  f"{len(columns)} columns in the header")
     col = {c: data[:, columns.index(c)] for c in columns}
     t = col["time"]
     if stop_time is not None:
@@ -106,6 +117,11 @@ def make_record(time: np.ndarray, ux: np.ndarray, uy: np.ndarray, z: np.ndarray,
         raise IdentificationError(f"need at least 10 samples, got {t.size}")
     dt = np.diff(t)
     h = float(np.median(dt))
+    if not np.all(dt > 0):
+        k = int(np.argmax(dt <= 0))
+        raise IdentificationError(
+            f"time must increase from row to row: row {k + 1} has t = {t[k]:.9g} s, row "
+            f"{k + 2} t = {t[k + 1]:.9g} s (rows sorted? two runs appended?)")
     if not (h > 0 and np.all(np.abs(dt - h) <= 1e-6 * h)):
         raise IdentificationError(
             f"the communication step must be uniform (min {dt.min():.6g}, max {dt.max():.6g} s)")

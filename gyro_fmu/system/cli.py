@@ -278,6 +278,9 @@ def _print_summary(summary: dict) -> None:
         print(f"{name:>8} {u['truth_final']:13.6g} {u['estimate_final']:13.6g} "
               f"{u['sigma_final']:10.3g} {u['max_abs_error_tail']:12.3g} {u['tolerance']:9.3g} "
               f"{'never' if conv is None else f'{conv * 1e3:.2f} ms':>9}")
+    if summary.get("interrupted"):
+        print(f"INTERRUPTED at t = {summary['interrupted']['at_s']:.9g} s: every figure above "
+              "is over the part simulated")
     om = summary["unknowns"]["Omega_z"]
     print(f"Omega_hat RMS error over the last 20%: {om['rms_error_tail']:.3g} rad/s; "
           f"all within tolerance: {summary['all_within_tolerance_in_tail']}")

@@ -165,7 +165,9 @@ def load_results(path: Path) -> CoSimulationResult:
         raise RunOutputError(f"{path} is not a results.csv of `gyro-fmu run`: its header "
                              f"starts with {columns[:1]}, not 'time'; rerun the scenario")
     try:
-        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+        with warnings.catch_warnings():  # "input contained no data": checked below
+            warnings.simplefilter("ignore", UserWarning)
+            data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
     except ValueError as exc:
         raise RunOutputError(f"{path} is damaged ({exc}): rerun the scenario") from None
     if data.shape[0] == 0 or data.shape[1] != len(columns):

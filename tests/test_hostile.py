@@ -1,0 +1,226 @@
+"""Careless input and Ctrl-C on the command line: one line with the cause and a remedy
+(exit 2), the work so far kept (exit 130), never a traceback or a silent change.
+
+Each test is one trial of the adversarial pass of issue 16; the FMU-side trials (states,
+refusals, outputs) and the validate trials live in test_hostile_fmu.py and
+test_hostile_validate.py.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gyro_fmu.cli import main
+from gyro_fmu.cosim.master import CoSimulationError, CoSimulationInterrupted
+from gyro_fmu.system.run import RunOutputError, load_results, run_and_report, write_or_rescue
+from gyro_fmu.system.scenario import scenario
+
+
+def _run(models_dir: Path, out: Path, *extra: str) -> list[str]:
+    return ["run", "--models", str(models_dir), "--out", str(out), "--no-figures", *extra]
+
+
+def _error(capsys) -> str:
+    err = capsys.readouterr().err.strip()
+    assert "Traceback" not in err
+    return err
+
+
+def test_a_step_that_does_not_divide_the_run_is_refused_with_both_nearest_stop_times(
+        models_dir, tmp_path, capsys):
+    # it used to round 333.33 steps to 333 and end the run at 0.999 ms without a word
+    assert main(_run(models_dir, tmp_path / "r", "--step", "3e-6", "--stop-time", "0.001")) == 2
+    err = _error(capsys)
+    assert "does not divide" in err and "0.000999 s or 0.001002 s" in err
+    assert not (tmp_path / "r").exists()
+
+
+def test_a_run_too_long_for_memory_is_refused_before_allocating(models_dir, tmp_path, capsys):
+    # it used to try to allocate 43.7 TiB and die in a MemoryError traceback
+    assert main(_run(models_dir, tmp_path / "r", "--stop-time", "1e6")) == 2
+    err = _error(capsys)
+    assert "GiB" in err and "more than the limit" in err and "shorten the run" in err
+    assert not (tmp_path / "r").exists(), "no empty output folder left behind"
+
+
+@pytest.mark.parametrize("where", ["a file", "under a file", "unreachable"])
+def test_an_output_folder_that_cannot_be_made_is_one_line(models_dir, tmp_path, capsys, where):
+    afile = tmp_path / "afile"
+    afile.write_text("mine")
+    out = {"a file": afile, "under a file": afile / "sub",
+           "unreachable": Path("/proc/no/such/folder")}[where]
+    assert main(_run(models_dir, out, "--stop-time", "0.001")) == 2
+    err = _error(capsys)
+    named = [str(d) for d in (out, *out.parents) if str(d) in err]
+    assert named and "gyro-fmu: error:" in err and len(err.splitlines()) == 1
+    assert afile.read_text() == "mine"
+
+
+def test_results_that_cannot_be_written_are_rescued_not_lost(tmp_path):
+    table = np.arange(6.0).reshape(3, 2)
+
+    def write(path: Path) -> None:
+        np.savetxt(path, table, delimiter=",")
+
+    with pytest.raises(RunOutputError, match="the results are safe in") as caught:
+        write_or_rescue(write, Path("/proc/no/such/folder/results.csv"))
+    rescued = Path(str(caught.value).split("safe in ")[1].split(":")[0])
+    assert np.array_equal(np.loadtxt(rescued, delimiter=","), table)
+
+
+def test_debug_shows_the_traceback(models_dir, tmp_path):
+    with pytest.raises(CoSimulationError, match="does not divide"):
+        main([*_run(models_dir, tmp_path / "r", "--step", "3e-6", "--stop-time", "0.001"),
+              "--debug"])
+
+
+@pytest.mark.parametrize(
+    ("fmu", "message"),
+    [("plant=afile", "is not a readable FMU: File is not a zip file"),
+     ("plant=.", "is a folder"),
+     ("plant", "must read INSTANCE=PATH"),
+     ("wheel=x.fmu", "INSTANCE one of drive, rate, plant, observer")])
+def test_a_user_fmu_that_is_not_one_is_named(models_dir, tmp_path, capsys, fmu, message):
+    os.chdir(tmp_path)
+    Path("afile").write_text("not a zip")
+    assert main(_run(models_dir, tmp_path / "r", "--stop-time", "0.001", "--fmu", fmu)) == 2
+    assert message in _error(capsys)
+
+
+def test_sweep_of_no_gyros_is_refused_by_the_parser(capsys):
+    with pytest.raises(SystemExit) as caught:
+        main(["sweep", "-n", "-3"])
+    assert caught.value.code == 2
+    assert "-3 must be at least 1" in capsys.readouterr().err
+
+
+def _csv(path: Path, header: str, rows: np.ndarray) -> Path:
+    np.savetxt(path, rows, delimiter=",", header=header, comments="")
+    return path
+
+
+@pytest.mark.parametrize(
+    ("rows", "message"),
+    [(np.empty((0, 4)), "has a header but no rows"),
+     ("time backwards", "time must increase from row to row: row 5"),
+     ("text", "is not a numeric CSV")])
+def test_identify_names_what_is_wrong_with_the_record(tmp_path, capsys, rows, message):
+    path = tmp_path / "rec.csv"
+    header = "time,drive.ux,plant.x,plant.y"
+    if isinstance(rows, str) and rows == "text":
+        path.write_text(header + "\n0,1,2,3\n0.1,one,2,3\n")
+    elif isinstance(rows, str):
+        t = np.arange(20) * 5e-6
+        t[5] = t[3]  # it used to be called "a non-uniform step"
+        _csv(path, header, np.column_stack([t, 0 * t, 0 * t, 0 * t]))
+    else:
+        _csv(path, header, rows)
+    assert main(["identify", str(path)]) == 2
+    assert message in _error(capsys)
+
+
+@pytest.fixture
+def a_run(models_dir, tmp_path) -> Path:
+    out = tmp_path / "run"
+    assert main(_run(models_dir, out, "--stop-time", "0.002")) == 0
+    return out
+
+
+@pytest.mark.parametrize("damage", ["summary not json", "summary of something else",
+                                    "results truncated", "results without rows"])
+def test_report_names_a_damaged_run(a_run, capsys, damage):
+    summary, results = a_run / "summary.json", a_run / "results.csv"
+    if damage == "summary not json":
+        summary.write_text(summary.read_text()[:100])
+    elif damage == "summary of something else":
+        summary.write_text(json.dumps({"n": 3}))
+    elif damage == "results truncated":
+        results.write_bytes(results.read_bytes()[:20_000])
+    else:
+        results.write_text(results.read_text().splitlines()[0] + "\n")
+    capsys.readouterr()
+    assert main(["report", str(a_run)]) == 2
+    err = _error(capsys)
+    assert ("damaged" in err or "rows" in err) and "rerun the scenario" in err
+
+
+def _interrupt_after(seconds: float) -> threading.Timer:
+    """SIGINT to this process after `seconds`, as a terminal's Ctrl-C."""
+    timer = threading.Timer(seconds, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    return timer
+
+
+def test_ctrl_c_during_a_run_keeps_what_was_simulated_and_exits_130(models_dir, tmp_path,
+                                                                     capsys):
+    out = tmp_path / "run"
+    main(_run(models_dir, out, "--stop-time", "0.004"))  # warm: kernels and archives loaded
+    timer = _interrupt_after(0.5)
+    code = main(_run(models_dir, out, "--stop-time", "2"))
+    timer.join()
+    assert code == 130
+    err = _error(capsys)
+    assert "interrupted at t =" in err and "wrote what was simulated" in err
+    summary = json.loads((out / "summary.json").read_text())
+    at = summary["interrupted"]["at_s"]
+    assert 0 < at < 2
+    result = load_results(out / "results.csv")
+    assert result["time"][-1] == at and len(result["time"]) == round(at / 5e-6) + 1
+    assert np.all(np.isfinite(result.data))
+
+
+def test_ctrl_c_before_the_first_step_is_an_interrupt_with_nothing_written(
+        models_dir, tmp_path, monkeypatch):
+    import gyro_fmu.cosim.master as master
+
+    real = master.instantiate
+
+    def ctrl_c_while_instantiating(comp, callbacks):  # as in pythonfmu's start-up code
+        os.kill(os.getpid(), signal.SIGINT)
+        return real(comp, callbacks)
+
+    monkeypatch.setattr(master, "instantiate", ctrl_c_while_instantiating)
+    sc = scenario("default", stop_time=0.002)
+    with pytest.raises(CoSimulationInterrupted, match="during start-up"):
+        run_and_report(sc, tmp_path / "run", models_dir, figures=False)
+    assert not (tmp_path / "run").exists()
+
+
+def test_co_simulation_interrupted_carries_the_points_so_far(models_dir):
+    from gyro_fmu.system.run import run_fmus
+
+    sc = scenario("default", stop_time=2.0)
+    timer = _interrupt_after(0.4)
+    with pytest.raises(CoSimulationInterrupted) as caught:
+        run_fmus(sc, models_dir, ensure=False)
+    timer.join()
+    result = caught.value.result
+    assert result is not None and 1 < len(result["time"]) < sc.n_steps + 1
+    assert np.all(np.isfinite(result.data))
+
+
+def test_ctrl_c_during_a_sweep_keeps_every_finished_row(models_dir, tmp_path):
+    from gyro_fmu.system.sweep import SweepSpec, ToleranceModel, run_sweep, write_outputs
+
+    spec = SweepSpec(ToleranceModel("park-horowitz", {}, {"kxy": 0.05}), n=12,
+                     stop_time=0.002, deadline=0.002)
+    seen: list[dict] = []
+
+    def ctrl_c_after_three(row: dict) -> None:
+        seen.append(row)
+        if len(seen) == 3:
+            raise KeyboardInterrupt
+
+    res = run_sweep(spec, models_dir, n_workers=1, progress=False, on_row=ctrl_c_after_three)
+    assert res.interrupted == "interrupted after 3 of 12 gyros" and len(res.rows) == 3
+    write_outputs(res, tmp_path / "sweep", figures=True)
+    summary = json.loads((tmp_path / "sweep" / "summary.json").read_text())
+    assert summary["n"] == 3 and summary["n_requested"] == 12 and summary["interrupted"]
+    assert len((tmp_path / "sweep" / "sweep.csv").read_text().splitlines()) == 4
