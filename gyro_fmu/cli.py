@@ -113,3 +113,7 @@ def error_line(exc: BaseException) -> str:
     else:
         remedy = "check the path, the free space and the permissions"
     return f"{where}{what}: {remedy} (--debug shows the traceback)"
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
