@@ -28,6 +28,7 @@ import math
 import os
 import signal
 import sys
+import threading
 import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
@@ -340,6 +341,15 @@ def run_sweep(
     return SweepResult([rows[i] for i in sorted(rows)], spec, wall, n_workers, interrupted)
 
 
+def dask_setup(worker: object) -> None:
+    """Dask preload hook of the local cluster's workers (`preload=[this module]`): ignore
+    SIGINT for good. The blocked mask they start with (`_local_cluster`) does not survive
+    a worker that its nanny restarts, and asyncio's handler would then end it with a
+    KeyboardInterrupt traceback of its own when a terminal's Ctrl-C reaches the group."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _local_cluster(n_workers: int):
     """A LocalCluster of single-threaded worker processes that never see SIGINT.
 
@@ -353,7 +363,7 @@ def _local_cluster(n_workers: int):
     previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         return LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                            dashboard_address=None)
+                            dashboard_address=None, preload=[__name__])
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
