@@ -6,7 +6,10 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import subprocess
 import sys
+import textwrap
 from pathlib import Path
 
 import fmpy
@@ -179,6 +182,21 @@ def test_simulate_fmu_raises_when_the_fmu_cannot_go_on(models_dir, start, rows, 
     assert any("cannot go on" in m and cause in m for m in messages), messages
 
 
+def test_the_loader_message_reaches_a_host_that_does_not_format(models_dir):
+    """gyro_fmu's own master (and the harness) log through a plain ctypes callback that
+    gets the message only: the loader formats it itself (it used to arrive as
+    "%s cannot go on (...): %s")."""
+    inst = Instance(models_dir / "GyroPlant.fmu", "plain")
+    inst.set({"ux": 1e-7, "Omega_z": 1e300})
+    assert inst.step(H) == 2
+    with pytest.raises(FMICallException):
+        inst.slave.getBooleanStatus(fmi2Terminated)
+    errors = inst.messages(min_status=3)
+    assert "plain cannot go on" in errors and "Omega_z=1e+300 held" in errors, errors
+    assert "%s" not in errors
+    inst.close()
+
+
 def test_a_recoverable_refusal_is_not_termination(models_dir):
     inst = Instance(models_dir / "GyroPlant.fmu", "recoverable")
     inst.set({"ux": float("nan")})
@@ -237,3 +255,101 @@ def test_fuzzed_states_never_crash_the_host(models_dir):
     for row in rows:
         assert row["trials"] == 50 and row["crashes"] == row["fatal"] == 0, row
         assert row["refused"] >= 40, row
+
+
+_ONE_PROCESS = textwrap.dedent("""
+    import gc, sys
+    from pathlib import Path
+    import fmpy
+    import numpy as np
+    from fmpy.fmi1 import FMICallException
+    from fmpy.fmi2 import fmi2Terminated
+    from fmu_harness import Instance
+    from test_hostile_fmu import H, _input_table
+    from gyro_fmu.fmu.fmpy_logger import rearm_default_logger
+    from gyro_fmu.fmu.validate import validate_files
+
+    models, refused_copy = Path(sys.argv[1]), sys.argv[2]
+    plant = str(models / "GyroPlant.fmu")
+    others = ["RateProfile", "TwoToneDrive", "GyroObserver", "GyroResonator", "GyroLoops",
+              "GyroPlant"]
+    kw = dict(stop_time=200 * H, step_size=H, output_interval=H, timeout=60)
+    refusing = dict(kw, stop_time=400 * H, input=_input_table({("Omega_z", 300): 1e300}))
+    cause = "Omega_z=1e+300 held over the step"
+
+    def refused(fmu, log=True):
+        messages = []
+        extra = {"logger": lambda *a: messages.append(a[4].decode())} if log else {}
+        try:
+            fmpy.simulate_fmu(fmu, **refusing, **extra)
+        except FMICallException as e:
+            assert "fmi2GetBooleanStatus failed with status 3" in str(e), e
+        else:
+            raise AssertionError("the refused run did not raise")
+        assert not log or any("cannot go on" in m and cause in m for m in messages), messages
+
+    count = 0
+    for round_ in range(3):
+        for name in others:  # each with its own logger: the one fmpy's proxy keeps
+            fmpy.simulate_fmu(str(models / f"{name}.fmu"), **kw,
+                              logger=lambda *a: None)
+            gc.collect()
+        refused(plant)  # its own logger
+        gc.collect()
+        lines = []  # the CLI's path: reference.py's simulate_fmu on the default callbacks
+        assert validate_files([refused_copy], write=lines.append) == 1
+        assert "FAIL: the simulation of the default experiment failed" in lines[0], lines
+        refused(plant)
+        gc.collect()
+        rearm_default_logger()  # fmpy's default callbacks: through a live printer
+        refused(plant, log=False)
+        # The same FMU file extracted twice and loaded at once (two copies of the loader
+        # and of pythonfmu's binary with one model identifier): the refusal of one copy
+        # is reported to that copy only.
+        alive = Instance(models / "GyroPlant.fmu", f"alive{round_}")
+        alive.set({"ux": 1e-7, "Omega_z": 1.0})
+        assert alive.step(H) == 0
+        unzipped = [fmpy.extract(plant) for _ in range(2)]
+        for folder in unzipped:
+            refused(folder)
+        assert alive.step(H) == 0
+        assert alive.slave.getBooleanStatus(fmi2Terminated) is False
+        alive.set({"Omega_z": 1e300})
+        assert alive.step(H) == 2
+        try:
+            alive.slave.getBooleanStatus(fmi2Terminated)
+        except FMICallException:
+            pass
+        else:
+            raise AssertionError("the alive copy's refusal was not reported to it")
+        alive.close()
+        refused(unzipped[0])  # the first folder again, after the other copy was freed
+        count += 7
+    print("refused runs", count)
+""")
+
+
+def test_many_fmus_then_refusals_in_one_process_never_crash(models_dir, tmp_path):
+    """In one process: every FMU run by simulate_fmu with a logger, then the refused
+    GyroPlant run (own logger; fmpy's default callbacks; validate_files on a copy whose
+    reference inputs hold Omega_z=1e300; the same FMU extracted twice beside a live
+    instance of a third copy), three rounds. Each refusal is an FMICallException at
+    fmi2GetBooleanStatus. It used to segfault there: fmpy's logger proxy keeps one
+    process-global target, left pointing at a freed ctypes thunk by an earlier
+    simulate_fmu(logger=...), and the default callbacks call it at the FMU's first log
+    message (see gyro_fmu/fmu/fmpy_logger.py). A child process, so a crash is an exit
+    code."""
+    from test_hostile_validate import _copy
+
+    refused_copy = _copy(models_dir / "GyroPlant.fmu", tmp_path / "refused.fmu",
+                         lambda n, d: d.replace(b",1.0\n", b",1e300\n")
+                         if n.endswith("_in.csv") else d)
+    here = Path(__file__).resolve().parent
+    proc = subprocess.run([sys.executable, "-c", _ONE_PROCESS, str(models_dir),
+                           str(refused_copy)], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=600, env={**os.environ, "PYTHONPATH": str(here)})
+    assert proc.returncode == 0, (proc.returncode, proc.stdout[-3000:], proc.stderr[-3000:])
+    assert "refused runs 21" in proc.stdout, proc.stdout[-3000:]
+    # a freed thunk that did not crash says so through Python's unraisable hook
+    assert "PyObject is NULL" not in proc.stderr and "Exception ignored" not in proc.stderr, \
+        proc.stderr[-3000:]

@@ -74,14 +74,16 @@ def test_broken_files_are_one_fail_line_each_and_later_fmus_are_still_checked(
            _copy(plant, tmp_path / "xml.fmu", lambda n, d: d[:200]
                  if n == "modelDescription.xml" else d),
            _copy(plant, tmp_path / "csv.fmu", lambda n, d: d.replace(b"0.0,", b"zz,", 1)
-                 if n == OUT else d)]
-    # An FMU that refuses the run (Omega_z=1e300 in the input table) is left out here: in
-    # a process that has run other FMUs, fmpy's fmi2GetBooleanStatus after the refusal
-    # segfaults (pythonfmu/slave side); alone it gives "FAIL: the simulation ... failed".
+                 if n == OUT else d),
+           _copy(plant, tmp_path / "refused.fmu", lambda n, d: d.replace(b",1.0\n", b",1e300\n")
+                 if n.endswith("_in.csv") else d)]
     assert main(["validate", *map(str, bad), str(models_dir / "RateProfile.fmu")]) == 1
     out = capsys.readouterr().out
     for path in bad:
         assert f"{path}: FAIL: " in out, path
+    assert f"{tmp_path / 'refused.fmu'}: FAIL: the simulation of the default experiment " \
+        "failed: fmi2GetBooleanStatus failed with status 3" in out, out
+    assert "Omega_z=1e+300 held over the step" in out  # the FMU's reason, printed by fmpy
     assert "pass  Omega_z" in out and "Traceback" not in out
 
 

@@ -41,6 +41,10 @@
  * the slave can step; fmi2Error with the reason logged once it cannot, so a host
  * such as fmpy raises instead of ending the run as if it were complete.
  *
+ * The loader's own log messages are formatted here and passed without arguments (every
+ * '%' doubled), so a host whose logger reads only the message (a ctypes callback, such
+ * as gyro_fmu's co-simulation master) gets the text, not "%s ... %s".
+ *
  * Environment: PYTHONFMU_LIBPYTHON (libpython to load), PYTHONHOME (kept if
  * set), PYTHONPATH (ours are prepended), PYTHONFMU_SHIM_VERBOSE=1 (trace on
  * stderr).
@@ -440,6 +444,32 @@ FMI2_Export const char *fmi2GetVersion(void)
     return loaded ? real.fmi2GetVersion() : fmi2Version;
 }
 
+/* Log through the host's logger with the message already formatted. The logger is
+ * variadic, but a host may pass a plain callback that reads only the message (a ctypes
+ * CFUNCTYPE, such as gyro_fmu's own co-simulation master): it would show "%s ... %s".
+ * So format here, double every '%' (a formatting host prints it once) and pass no
+ * arguments. */
+static void say(fmi2CallbackLogger logger, fmi2ComponentEnvironment env, fmi2String name,
+                fmi2Status status, fmi2String category, const char *fmt, ...)
+{
+    char text[8192], safe[2 * 8192];
+    size_t k = 0;
+    const char *p;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    for (p = text; *p && k + 2 < sizeof safe; p++) {
+        if (*p == '%') safe[k++] = '%';
+        safe[k++] = *p;
+    }
+    safe[k] = '\0';
+    if (logger)
+        logger(env, name, status, category, safe);
+    else
+        fprintf(stderr, "%s\n", text);
+}
+
 /* ------------------------------------------------------------------------ */
 /* Instances: the real component plus what the slave reported              */
 /* ------------------------------------------------------------------------ */
@@ -474,21 +504,14 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuT
     fmi2CallbackLogger logger = functions ? functions->logger : NULL;
     fmi2ComponentEnvironment env = functions ? functions->componentEnvironment : NULL;
     if (!ensure_loaded(err, sizeof err, info, sizeof info)) {
-        if (logger)
-            logger(env, instanceName, fmi2Error, "logStatusError", "%s: %s", SHIM_VERSION, err);
-        else
-            fprintf(stderr, "%s: %s\n", SHIM_VERSION, err);
+        say(logger, env, instanceName, fmi2Error, "logStatusError", "%s: %s", SHIM_VERSION, err);
         return NULL;
     }
     if (loggingOn && logger && info[0])
-        logger(env, instanceName, fmi2OK, "logAll", "%s: %s", SHIM_VERSION, info);
-    if (warnings[0] && !__atomic_exchange_n(&warnings_reported, 1, __ATOMIC_ACQ_REL)) {
-        if (logger)
-            logger(env, instanceName, fmi2Warning, "logStatusWarning", "%s: %s", SHIM_VERSION,
-                   warnings);
-        else
-            fprintf(stderr, "%s: %s\n", SHIM_VERSION, warnings);
-    }
+        say(logger, env, instanceName, fmi2OK, "logAll", "%s: %s", SHIM_VERSION, info);
+    if (warnings[0] && !__atomic_exchange_n(&warnings_reported, 1, __ATOMIC_ACQ_REL))
+        say(logger, env, instanceName, fmi2Warning, "logStatusWarning", "%s: %s", SHIM_VERSION,
+            warnings);
     i = (struct instance *)calloc(1, sizeof *i);
     if (!i) return NULL;
     i->logger = logger;
@@ -601,8 +624,8 @@ FMI2_Export fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKin
     }
     *v = fmi2True;
     if (i->logger)
-        i->logger(i->env, i->name, fmi2Error, "logStatusError",
-                  "%s cannot go on (fmi2GetBooleanStatus(fmi2Terminated) answers fmi2Error, not "
-                  "a normal end of the simulation): %s", i->name, i->why[0] ? i->why : "?");
+        say(i->logger, i->env, i->name, fmi2Error, "logStatusError",
+            "%s cannot go on (fmi2GetBooleanStatus(fmi2Terminated) answers fmi2Error, not a "
+            "normal end of the simulation): %s", i->name, i->why[0] ? i->why : "?");
     return fmi2Error;
 }

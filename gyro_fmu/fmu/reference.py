@@ -24,6 +24,7 @@ from fmpy.util import validate_signal, write_csv
 
 from ..errors import GyroFmuError
 from .build import load_slave
+from .fmpy_logger import rearm_default_logger
 
 LS_REF_DIR = "extra/org.fmi-standard.fmi-ls-ref"
 MANIFEST = f"{LS_REF_DIR}/fmi-ls-manifest.xml"
@@ -66,6 +67,10 @@ def _experiment(fmu: Path) -> tuple[str, float, float]:
 
 
 def _simulate(fmu: Path, inputs: np.ndarray | None, stop_time: float, step: float) -> np.ndarray:
+    # fmpy's default callbacks log through a process-global pointer that an earlier
+    # simulate_fmu(logger=...) in this process may have left dangling (a segfault at the
+    # FMU's first message, e.g. the refusal of a run): point it at a live printer first.
+    rearm_default_logger()
     return simulate_fmu(str(fmu), stop_time=stop_time, output_interval=step, input=inputs)
 
 
