@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..cosim.master import whole_steps
 from .ssp import PARAMETER_SET, SSPError, package_settings, single_threaded_blas
 
 
@@ -79,7 +80,7 @@ def run_ssp_ecos(
     """
     ssp_path = Path(ssp_path)
     stop_time, step = package_settings(ssp_path, stop_time, step)
-    n = round(stop_time / step)
+    n = whole_steps(stop_time, step)  # refuses a step that does not divide the run
     if n < 10:  # measured: the ecos library stops on a floating-point exception below
         raise SSPError(f"Ecos needs at least 10 steps; {stop_time} s at {step} s is {n}")
     ecos_lib, simulation = _load_ecospy()

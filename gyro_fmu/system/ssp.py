@@ -44,7 +44,7 @@ from xml.etree import ElementTree as ET
 import numpy as np
 from fmpy import read_model_description
 
-from ..cosim.master import Component, Connection, CoSimulationError
+from ..cosim.master import Component, Connection, CoSimulationError, whole_steps
 from ..fmu.build import MODELS_DIR
 from .scenario import Scenario, fmu_system, scenario
 
@@ -361,9 +361,7 @@ def run_ssp_libcosim(
     step_ns = round(step * _NS)
     if step_ns <= 0 or abs(step_ns - step * _NS) > 1e-6 * step_ns:
         raise SSPError(f"step {step} s is not a whole number of nanoseconds (libcosim's unit)")
-    n_steps = round(stop_time / step)
-    if n_steps < 1:
-        raise SSPError(f"stop_time {stop_time} s is shorter than one step of {step} s")
+    n_steps = whole_steps(stop_time, step)  # refuses a step that does not divide the run
 
     log_output_level(CosimLogLevel.WARNING)
     with tempfile.TemporaryDirectory(prefix="gyro_ssp_") as tmp, single_threaded_blas():
