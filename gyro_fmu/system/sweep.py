@@ -25,10 +25,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
-import signal
-import sys
-import threading
 import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
@@ -245,39 +241,6 @@ def _spec_dict(spec: SweepSpec) -> dict:
     return json.loads(json.dumps(d, default=str))
 
 
-class _Progress:
-    """One status line on stderr: done/total, failed, rate and ETA (no extra dependency)."""
-
-    def __init__(self, total: int, stream=sys.stderr, width: int = 30) -> None:
-        self.total, self.stream, self.width = total, stream, width
-        self.done = self.failed = 0
-        self.start = time.perf_counter()
-        self._tty = getattr(stream, "isatty", lambda: False)()
-        self._last = -math.inf
-
-    def update(self, failed: bool) -> None:
-        self.done += 1
-        self.failed += int(failed)
-        now = time.perf_counter()
-        if not self._tty and now - self._last < 5.0 and self.done < self.total:
-            return  # in a log file: one line per 5 s
-        self._last = now
-        elapsed = now - self.start
-        eta = elapsed / self.done * (self.total - self.done)
-        fill = round(self.width * self.done / self.total)
-        line = (f"[{'#' * fill}{'.' * (self.width - fill)}] {self.done}/{self.total} done, "
-                f"{self.failed} failed, {elapsed:.0f} s elapsed, ETA {_hms(eta)}")
-        self.stream.write(("\r" + line) if self._tty else line + "\n")
-        if self._tty and self.done == self.total:
-            self.stream.write("\n")
-        self.stream.flush()
-
-
-def _hms(s: float) -> str:
-    s = round(s)
-    return f"{s // 60}m{s % 60:02d}s" if s >= 60 else f"{s}s"
-
-
 def run_sweep(
     spec: SweepSpec,
     models_dir: Path,
@@ -293,79 +256,24 @@ def run_sweep(
     n_workers single-threaded worker processes (default: all cores).
     draws: explicit parameter sets instead of spec.tolerances.draw(spec.n).
     """
-    from dask.distributed import Client, as_completed
-
+    from ..studies.tasks import run_tasks
     from .run import ensure_fmus
 
     models = Path(models_dir).resolve()
     ensure_fmus(models)
     draws = list(draws) if draws is not None else spec.tolerances.draw(spec.n)
-    cluster = None
-    if scheduler is None:
-        n_workers = n_workers or os.cpu_count() or 1
-        cluster = _local_cluster(n_workers)
-        client = Client(cluster)
-    else:
-        client = Client(scheduler)
-    try:
-        n_workers = len(client.scheduler_info().get("workers", {})) or (n_workers or 1)
-        start = time.perf_counter()
-        futures = {client.submit(run_gyro, i, d, spec, str(models), pure=False): i
-                   for i, d in enumerate(draws)}
-        bar = _Progress(len(futures)) if progress else None
-        rows: dict[int, dict] = {}
-        interrupted = None
-        try:
-            for fut in as_completed(futures):
-                i = futures[fut]
-                try:
-                    row = fut.result()
-                except Exception as exc:  # worker died, task lost: still a row
-                    row = {"gyro": i, "status": "failed",
-                           "reason": f"task error {type(exc).__name__}: {exc}"[:500],
-                           **{f"true_{k}": float(v) for k, v in draws[i].items()}}
-                rows[i] = row
-                if on_row:
-                    on_row(row)
-                if bar:
-                    bar.update(row["status"] != "ok")
-        except KeyboardInterrupt:  # keep every finished row; the caller writes them
-            interrupted = f"interrupted after {len(rows)} of {len(futures)} gyros"
-            if cluster is None:  # someone else's cluster: stop our tasks there
-                client.cancel(list(futures))  # (a local one is closed below)
-        wall = time.perf_counter() - start
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
-    return SweepResult([rows[i] for i in sorted(rows)], spec, wall, n_workers, interrupted)
 
+    def lost(i: int, exc: BaseException) -> dict:
+        return {"gyro": i, "status": "failed",
+                "reason": f"task error {type(exc).__name__}: {exc}"[:500],
+                **{f"true_{k}": float(v) for k, v in draws[i].items()}}
 
-def dask_setup(worker: object) -> None:
-    """Dask preload hook of the local cluster's workers (`preload=[this module]`): ignore
-    SIGINT for good. The blocked mask they start with (`_local_cluster`) does not survive
-    a worker that its nanny restarts, and asyncio's handler would then end it with a
-    KeyboardInterrupt traceback of its own when a terminal's Ctrl-C reaches the group."""
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
-def _local_cluster(n_workers: int):
-    """A LocalCluster of single-threaded worker processes that never see SIGINT.
-
-    A terminal's Ctrl-C reaches the whole process group: workers that took it would die
-    with tracebacks of their own. SIGINT is blocked while they start, so they inherit
-    the blocked signal (a signal mask survives fork and exec), and so do the cluster's
-    threads; a Ctrl-C during start-up stays pending here and is raised as
-    KeyboardInterrupt once the mask is lifted (run_sweep keeps every finished row)."""
-    from dask.distributed import LocalCluster
-
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        return LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                            dashboard_address=None, preload=[__name__])
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+    rows, wall, n_workers, interrupted = run_tasks(
+        run_gyro, [(i, d, spec, str(models)) for i, d in enumerate(draws)], lost,
+        scheduler, n_workers, progress, on_row)
+    if interrupted:
+        interrupted = interrupted.replace(" runs", " gyros")
+    return SweepResult(rows, spec, wall, n_workers, interrupted)
 
 
 # --------------------------------------------------------------------------- outputs

@@ -1,0 +1,1 @@
+"""Studies over many runs: the Dask plumbing the lot studies share (tasks.py)."""
