@@ -13,7 +13,7 @@ docs/observer-design.md.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict
 
 import numpy as np
 from numba import njit
@@ -21,108 +21,38 @@ from numba import njit
 from ..model.measurement import UNKNOWNS, MeasuredPair
 from ..model.parameters import GyroParameters, check_parameters
 from . import observer_kernels as kern
-from .observer_kernels import I_OM, I_PAR, KMAX, N_PAR, NoiseModel, ObserverModel
+from .observer_kernels import I_OM, I_PAR, KMAX, N_MON, N_PAR, NoiseModel, ObserverModel
+from .observer_monitor import (
+    MonitorLimits,
+    ObserverDivergedError,
+    check,
+    limits,
+    lost_message,
+    warning_message,
+)
+from .observer_tuning import ObserverTuning
 
-_STATE_VERSION = 1
+__all__ = ["GyroStateObserver", "ObserverDivergedError", "ObserverTuning"]
+
+_STATE_VERSION = 2
+#: Auto prior of [x, vx, y, vy]: this fraction of the first signal's size (m).
+PRIOR_FRACTION = 0.01
 #: Outputs of output_row(): state estimate, UNKNOWNS, their 1-sigmas.
 N_OUTPUTS = 4 + 8 + 8
 
 
 @njit(cache=True)
-def _ekf_step(model, noise, x, P, peak, nu2, F, Q, ux, uy, z1, z2, h):  # pragma: no cover
-    """step() in one compiled call: correct at t, then predict to t + h.
+def _ekf_step(model, noise, lim, x, P, L, peak, nu2, mon, F, Q, ux, uy, z1, z2, h
+              ):  # pragma: no cover
+    """step() in one compiled call: correct at t, predict to t + h, monitor (its verdict).
 
     model and noise arrive as plain tuples (numba types those 0.6 us faster per call
     than NamedTuples) and are given their field names here.
     """
     m = ObserverModel(*model)
-    kern.correct(m, NoiseModel(*noise), x, P, peak, nu2, z1, z2, h)
+    kern.correct(m, NoiseModel(*noise), x, P, peak, nu2, mon, z1, z2, h)
     kern.predict(m, x, P, F, Q, ux, uy, h)
-
-
-def _tuning(default: float, unit: str, description: str, **bounds: float):
-    """A tuning field with what dataclass_parameters puts in the FMU (unit, description)."""
-    return field(default=default, metadata={"unit": unit, "description": description,
-                                            "min": 0.0, **bounds})
-
-
-@dataclass(frozen=True)
-class ObserverTuning:
-    """Tuning of GyroStateObserver; the defaults fit noise-free data.
-
-    Noise convention of noise_rel: white noise with std = noise_rel x the signal's peak.
-    Units and meaning of each field are in its metadata (they become FMU parameters).
-    """
-
-    noise_rel: float = _tuning(
-        1.0e-6, "1", "measurement noise std relative to the running peak of each measured "
-        "signal (used where sigma_z1, sigma_z2 are 0; a small floor for noise-free data)")
-    sigma_z1: float = _tuning(
-        0.0, "m", "absolute measurement noise std of z1 (x; in m/s for vx when "
-        "measured_pair = 2); > 0 overrides noise_rel")
-    sigma_z2: float = _tuning(
-        0.0, "m", "absolute measurement noise std of z2 (y; in m/s for vy when "
-        "measured_pair = 2); > 0 overrides noise_rel")
-    innov_floor: float = _tuning(
-        0.5, "1", "relative noise mode: the noise variance is at least innov_floor times "
-        "the running mean of the squared innovations")
-    innov_tau: float = _tuning(
-        1.0e-4, "s", "time constant of the running mean of the squared innovations")
-    q_Omega: float = _tuning(
-        1.0e9, "rad2/s5", "spectral density of the white noise driving the highest "
-        "derivative of Omega_z (unit for omega_order 2; rad2/s3 for 1, rad2/s7 for 3): "
-        "the rate-tracking bandwidth")
-    omega_order: int = _tuning(
-        2, "1", "model of Omega_z: 1 random walk, 2 integrated random walk, 3 twice "
-        "integrated random walk", min=1, max=3)
-    q_param_rel: float = _tuning(
-        0.0, "1/s", "random-walk spectral density of the relative parameter deviations "
-        "(0: constant parameters)")
-    sigma0_k_rel: float = _tuning(
-        0.1, "1", "initial 1-sigma of kxx, kyy, kxy relative to their initial guesses")
-    sigma0_d_rel: float = _tuning(
-        0.5, "1", "initial 1-sigma of dxx, dyy, dxy relative to the largest |d| guessed")
-    sigma0_m_rel: float = _tuning(
-        0.1, "1", "initial 1-sigma of m relative to its initial guess")
-    sigma0_Omega: float = _tuning(2.0, "rad/s", "initial 1-sigma of Omega_z")
-    sigma0_Omega_rate: float = _tuning(
-        1.0e3, "rad/s2", "initial 1-sigma of dOmega_z/dt (omega_order 2 and 3)")
-    sigma0_Omega_acc: float = _tuning(
-        1.0e6, "rad/s3", "initial 1-sigma of d2Omega_z/dt2 (omega_order 3)")
-    sigma0_position: float = _tuning(1.0e-10, "m", "initial 1-sigma of x and y")
-    sigma0_velocity: float = _tuning(1.0e-6, "m/s", "initial 1-sigma of vx and vy")
-    joseph: bool = _tuning(
-        False, "1", "1: Joseph-form covariance update (same results measured, slower); "
-        "0: P - K H P", max=1)
-
-    def __post_init__(self) -> None:
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if f.name in ("joseph", "omega_order"):
-                continue
-            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0.0):
-                raise ValueError(
-                    f"ObserverTuning.{f.name}={v!r} must be a finite number >= 0"
-                )
-        if self.omega_order not in (1, 2, 3):
-            raise ValueError(
-                f"ObserverTuning.omega_order={self.omega_order!r}: use 1 (random walk), "
-                "2 (integrated random walk) or 3"
-            )
-        if self.noise_rel <= 0.0 and (self.sigma_z1 <= 0.0 or self.sigma_z2 <= 0.0):
-            raise ValueError(
-                f"ObserverTuning.noise_rel={self.noise_rel!r}: give noise_rel > 0 "
-                "(e.g. 1e-6 for noise-free data) or both sigma_z1 and sigma_z2 > 0"
-            )
-        if self.innov_tau <= 0.0:
-            raise ValueError(f"ObserverTuning.innov_tau={self.innov_tau!r} s must be > 0")
-        for name in ("sigma0_k_rel", "sigma0_d_rel", "sigma0_m_rel", "sigma0_Omega"):
-            if getattr(self, name) <= 0.0:
-                raise ValueError(
-                    f"ObserverTuning.{name}={getattr(self, name)!r} must be > 0: a zero "
-                    "initial uncertainty freezes that estimate"
-                )
-
+    return check(m, MonitorLimits(*lim), x, P, L, mon)
 
 
 class GyroStateObserver:
@@ -179,9 +109,11 @@ class GyroStateObserver:
         xhat = np.zeros(self.n)
         xhat[I_OM] = Omega_z_0
         sig = np.zeros(self.n)
-        sig[[0, 2]] = tun.sigma0_position
-        sig[1] = tun.sigma0_velocity / wx
-        sig[3] = tun.sigma0_velocity / wy
+        self._auto_prior = tun.sigma0_position <= 0.0 or tun.sigma0_velocity <= 0.0
+        if not self._auto_prior:
+            sig[[0, 2]] = tun.sigma0_position
+            sig[1] = tun.sigma0_velocity / wx
+            sig[3] = tun.sigma0_velocity / wy
         sig[4:7] = tun.sigma0_k_rel * np.abs(theta0[:3]) / scale[:3]
         sig[7:10] = tun.sigma0_d_rel
         sig[10] = tun.sigma0_m_rel
@@ -192,9 +124,15 @@ class GyroStateObserver:
             sig[I_OM + 2] = tun.sigma0_Omega_acc
         self.xhat = xhat
         self.P = np.diag(sig**2)
-        self.peak = np.zeros(2)  # running peak |z1|, |z2|
+        # running peak |z1|, |z2|, from the prior's scale: R > 0 in relative noise mode
+        i0 = self.measured_pair.state_rows[0]
+        self.peak = sig[[i0, i0 + 2]] * self._model.hgain
         self.nu2 = np.full(2, -1.0)  # EWMA of squared innovations (< 0: not started)
+        self.mon = np.zeros(N_MON)  # divergence monitor (observer_kernels.M_*)
         self.t = 0.0  # s since construction
+        self.status = 0  #: 0 ok, 1 warning (innovations above their band), 2 lost
+        self.lost: str | None = None  #: why the filter is lost (then every step refuses)
+        self.warning: str | None = None  #: the last status-1 verdict, in words
 
     def _build(self, wx: float, wy: float, theta0: np.ndarray, scale: np.ndarray) -> None:
         """The ObserverModel and caches that depend only on the scaling (set_state too)."""
@@ -238,6 +176,8 @@ class GyroStateObserver:
         self._h_cached = -1.0
         self._Tdiag = np.array([1.0, 1.0 / wx, 1.0, 1.0 / wy])
         self._out = np.empty(N_OUTPUTS)
+        self._L = np.zeros((n, n))  # Cholesky factor scratch of the monitor
+        self._lim = limits(self._model, tun, self.measured_pair)
 
     def _set_h(self, h: float) -> None:
         """Omega-model transition and process noise of a step h (cached: h rarely changes)."""
@@ -284,11 +224,48 @@ class GyroStateObserver:
         if not (math.isfinite(ux) and math.isfinite(uy) and math.isfinite(z1)
                 and math.isfinite(z2)):
             self._check_finite(ux=ux, uy=uy, z1=z1, z2=z2)
+        if self.lost is not None:
+            raise ObserverDivergedError(self.lost)
+        if self._auto_prior:  # the first steps: update, predict (each may start the prior)
+            self.update(z1, z2, h)
+            self.predict(ux, uy, h)
+            return
         if h != self._h_cached:
             self._set_h(h)
-        _ekf_step(self._model_t, self._noise_t, self.xhat, self.P, self.peak, self.nu2,
-                  self._F, self._Q, float(ux), float(uy), float(z1), float(z2), float(h))
+        code = _ekf_step(self._model_t, self._noise_t, self._lim, self.xhat, self.P, self._L,
+                         self.peak, self.nu2, self.mon, self._F, self._Q, float(ux), float(uy),
+                         float(z1), float(z2), float(h))
         self.t += h
+        if code != self.status:
+            self._verdict(code, h)
+
+    def _start_prior(self, ux: float, uy: float, z1: float, z2: float) -> None:
+        """Scale-invariant prior of [x, vx, y, vy]: at rest (variance 0) until the first
+        nonzero measurement or drive, then 1-sigma = the size of that signal, in m (the
+        larger of the measured displacement and the static deflection b |u| / k of the
+        guess), and that times the guessed natural frequency for the velocities."""
+        th = self.theta0
+        g = self._model.hgain
+        size = max(abs(z1) / g[0], abs(z2) / g[1], th[6] * abs(ux) / th[0],
+                   th[6] * abs(uy) / th[1])
+        if not size > 0.0:
+            return
+        np.maximum(self.peak, size * g, out=self.peak)
+        size *= PRIOR_FRACTION
+        for i in range(4):  # filter units: m for all four (velocities scaled by 1/w)
+            self.P[i, i] += size * size
+        self._auto_prior = False
+
+    def _verdict(self, code: int, h: float) -> None:
+        """Act on a monitor verdict: status 0/1, or lost: the filter refuses from now on."""
+        if code < 2:
+            if code == 1 and self.status == 0:
+                self.warning = warning_message(self.mon, self._lim, self.t)
+            self.status = code
+            return
+        self.status = 2
+        self.lost = lost_message(self.mon, self, h)
+        raise ObserverDivergedError(self.lost)
 
     def update(self, z1: float, z2: float, h: float) -> None:
         """Correct the estimate with the measured pair (z1, z2) at t (eq. 8).
@@ -297,18 +274,30 @@ class GyroStateObserver:
         """
         self._check_h(h)
         self._check_finite(z1=z1, z2=z2)
+        if self.lost is not None:
+            raise ObserverDivergedError(self.lost)
+        if self._auto_prior:
+            self._start_prior(0.0, 0.0, z1, z2)
         kern.correct(self._model, self._noise, self.xhat, self.P, self.peak, self.nu2,
-                     float(z1), float(z2), float(h))
+                     self.mon, float(z1), float(z2), float(h))
 
     def predict(self, ux: float, uy: float, h: float) -> None:
         """Propagate the estimate and its covariance to t + h (eq. 5), ux, uy (N) held."""
         self._check_h(h)
         self._check_finite(ux=ux, uy=uy)
+        if self.lost is not None:
+            raise ObserverDivergedError(self.lost)
+        if self._auto_prior:
+            self._start_prior(ux, uy, 0.0, 0.0)
         if h != self._h_cached:
             self._set_h(h)
         kern.predict(self._model, self.xhat, self.P, self._F, self._Q, float(ux), float(uy),
                      float(h))
         self.t += h
+        code = check(self._model, MonitorLimits(*self._lim), self.xhat, self.P, self._L,
+                     self.mon)
+        if code != self.status:
+            self._verdict(code, h)
 
     def held_step(self, s: np.ndarray, ux: float, uy: float, h: float,
                   theta: np.ndarray | None = None, Omega_z: float | None = None
@@ -361,6 +350,7 @@ class GyroStateObserver:
             "P": self.P.tolist(),
             "peak": self.peak.tolist(),
             "nu2": self.nu2.tolist(),
+            "monitor": [*self.mon.tolist(), self.status, self.lost, self._auto_prior],
             "t": self.t,
         }
 
@@ -391,4 +381,10 @@ class GyroStateObserver:
         self.P = P
         self.peak = np.array(state["peak"], dtype=float)
         self.nu2 = np.array(state["nu2"], dtype=float)
+        mon = state["monitor"]
+        if not (isinstance(mon, list) and len(mon) == N_MON + 3):
+            raise ValueError(f"observer state monitor {mon!r}: expected a list of {N_MON + 3}")
+        self.mon = np.array(mon[:N_MON], dtype=float)
+        self.status, self.lost, self._auto_prior = int(mon[N_MON]), mon[N_MON + 1], \
+            bool(mon[N_MON + 2])
         self.t = float(state["t"])

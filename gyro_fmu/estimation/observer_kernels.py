@@ -26,6 +26,11 @@ I_PAR = 4  #: index of the first parameter in the filter state
 I_OM = 11  #: index of Omega_z in the filter state
 KMAX = 24  #: most Taylor terms (||A h|| <= 0.5 needs 18)
 _STEP_NORM = 0.5  # longer steps are split into equal sub-steps
+#: Monitor accumulators and results (the observer's `mon` array).
+M_NIS, M_REL, M_COUNT, M_STATUS, M_CAUSE, M_WHICH, M_VALUE, M_BLOCK = range(8)
+N_MON = 8
+#: Monitor verdicts (observer_monitor.check): 0 ok, 1 warning, >= 2 lost, by cause.
+C_OK, C_WARN, C_NONFINITE, C_NOT_SPD, C_BOUNDS, C_INNOVATIONS = range(6)
 _J = np.arange(KMAX)
 _FACT = np.array([math.factorial(k) for k in range(2 * KMAX + 2)], dtype=float)
 #: BETA[j, m] = j! m! / (j + m + 1)!: weights of the Frechet series of expm.
@@ -197,11 +202,12 @@ def _rel_R(nu2, j, nu, peak, h, noise_rel, innov_floor, innov_tau):  # pragma: n
 
 
 @njit(cache=True)
-def correct(model, noise, x, P, peak, nu2, z1, z2, h):  # pragma: no cover
+def correct(model, noise, x, P, peak, nu2, mon, z1, z2, h):  # pragma: no cover
     """Measurement update (eq. 8) of x, P in place with the measured pair (z1, z2) at t.
 
     peak (running |z|) and nu2 (innovation EWMA, < 0 before the first) are updated for
     the relative noise mode; h (s) is the step that follows, the EWMA's time base.
+    mon (monitor accumulators, M_*) receives the step's NIS and relative innovation.
     """
     n = x.shape[0]
     i0 = model.i0
@@ -241,20 +247,39 @@ def correct(model, noise, x, P, peak, nu2, z1, z2, h):  # pragma: no cover
         K[i, 0] = PHt[i, 0] * s00 + PHt[i, 1] * s10
         K[i, 1] = PHt[i, 0] * s01 + PHt[i, 1] * s11
         x[i] = x[i] + (K[i, 0] * nu0 + K[i, 1] * nu1)
-    if noise.joseph:
-        IKH = np.eye(n)
+    if noise.joseph:  # (I - K H) P (I - K H)' + K R K', in O(n^2): H picks rows i0, i1
+        M = np.empty((n, n))
         for i in range(n):
-            IKH[i, i0] -= K[i, 0] * g0
-            IKH[i, i1] -= K[i, 1] * g1
-        KR = np.empty((n, 2))
+            k0 = K[i, 0] * g0
+            k1 = K[i, 1] * g1
+            for j in range(n):
+                M[i, j] = P[i, j] - (k0 * P[i0, j] + k1 * P[i1, j])
         for i in range(n):
-            KR[i, 0] = K[i, 0] * R0
-            KR[i, 1] = K[i, 1] * R1
-        P[:, :] = IKH @ P @ IKH.T + KR @ K.T
+            m0 = M[i, i0] * g0
+            m1 = M[i, i1] * g1
+            kr0 = K[i, 0] * R0
+            kr1 = K[i, 1] * R1
+            for j in range(n):
+                P[i, j] = (M[i, j] - (m0 * K[j, 0] + m1 * K[j, 1])) + (kr0 * K[j, 0]
+                                                                       + kr1 * K[j, 1])
+        for i in range(n):  # symmetric to the last bit
+            for j in range(i):
+                v = 0.5 * (P[i, j] + P[j, i])
+                P[i, j] = v
+                P[j, i] = v
     else:
         for i in range(n):
             for j in range(n):
                 P[i, j] -= K[i, 0] * PHt[j, 0] + K[i, 1] * PHt[j, 1]
+    # monitor: NIS = nu' S^-1 nu (2 dof) and the innovations relative to the signal
+    mon[M_NIS] += nu0 * (s00 * nu0 + s01 * nu1) + nu1 * (s10 * nu0 + s11 * nu1)
+    rel = 0.0
+    if peak[0] > 0.0:
+        rel += (nu0 / peak[0]) ** 2
+    if peak[1] > 0.0:
+        rel += (nu1 / peak[1]) ** 2
+    mon[M_REL] += 0.5 * rel
+    mon[M_COUNT] += 1.0
 
 
 @njit(cache=True)

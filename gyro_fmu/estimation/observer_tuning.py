@@ -1,0 +1,96 @@
+"""Tuning of GyroStateObserver (the FMU's tuning parameters, with units and descriptions)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+
+
+def _tuning(default: float, unit: str, description: str, **bounds: float):
+    """A tuning field with what dataclass_parameters puts in the FMU (unit, description)."""
+    return field(default=default, metadata={"unit": unit, "description": description,
+                                            "min": 0.0, **bounds})
+
+
+@dataclass(frozen=True)
+class ObserverTuning:
+    """Tuning of GyroStateObserver; the defaults fit noise-free data.
+
+    Noise convention of noise_rel: white noise with std = noise_rel x the signal's peak.
+    Units and meaning of each field are in its metadata (they become FMU parameters).
+    """
+
+    noise_rel: float = _tuning(
+        1.0e-6, "1", "measurement noise std relative to the running peak of each measured "
+        "signal (used where sigma_z1, sigma_z2 are 0; a small floor for noise-free data)")
+    sigma_z1: float = _tuning(
+        0.0, "m", "absolute measurement noise std of z1 (x; in m/s for vx when "
+        "measured_pair = 2); > 0 overrides noise_rel")
+    sigma_z2: float = _tuning(
+        0.0, "m", "absolute measurement noise std of z2 (y; in m/s for vy when "
+        "measured_pair = 2); > 0 overrides noise_rel")
+    innov_floor: float = _tuning(
+        0.5, "1", "relative noise mode: the noise variance is at least innov_floor times "
+        "the running mean of the squared innovations")
+    innov_tau: float = _tuning(
+        1.0e-4, "s", "time constant of the running mean of the squared innovations")
+    q_Omega: float = _tuning(
+        1.0e9, "rad2/s5", "spectral density of the white noise driving the highest "
+        "derivative of Omega_z (unit for omega_order 2; rad2/s3 for 1, rad2/s7 for 3): "
+        "the rate-tracking bandwidth")
+    omega_order: int = _tuning(
+        2, "1", "model of Omega_z: 1 random walk, 2 integrated random walk, 3 twice "
+        "integrated random walk", min=1, max=3)
+    q_param_rel: float = _tuning(
+        0.0, "1/s", "random-walk spectral density of the relative parameter deviations "
+        "(0: constant parameters)")
+    sigma0_k_rel: float = _tuning(
+        0.1, "1", "initial 1-sigma of kxx, kyy, kxy relative to their initial guesses")
+    sigma0_d_rel: float = _tuning(
+        0.5, "1", "initial 1-sigma of dxx, dyy, dxy relative to the largest |d| guessed")
+    sigma0_m_rel: float = _tuning(
+        0.1, "1", "initial 1-sigma of m relative to its initial guess")
+    sigma0_Omega: float = _tuning(2.0, "rad/s", "initial 1-sigma of Omega_z")
+    sigma0_Omega_rate: float = _tuning(
+        1.0e3, "rad/s2", "initial 1-sigma of dOmega_z/dt (omega_order 2 and 3)")
+    sigma0_Omega_acc: float = _tuning(
+        1.0e6, "rad/s3", "initial 1-sigma of d2Omega_z/dt2 (omega_order 3)")
+    sigma0_position: float = _tuning(
+        0.0, "m", "initial 1-sigma of x and y; 0: scaled to the signal (the state is "
+        "taken at rest until the first nonzero measurement or drive, then known to 1 % of "
+        "the size of that signal)")
+    sigma0_velocity: float = _tuning(
+        0.0, "m/s", "initial 1-sigma of vx and vy; 0: scaled to the signal like "
+        "sigma0_position (times the guessed natural frequency)")
+    joseph: bool = _tuning(
+        True, "1", "1: Joseph-form covariance update, symmetrized (keeps the covariance "
+        "positive definite; docs/observer-soundness.md); 0: P - K H P (loses it at some "
+        "steps)", max=1)
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name in ("joseph", "omega_order"):
+                continue
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0.0):
+                raise ValueError(
+                    f"ObserverTuning.{f.name}={v!r} must be a finite number >= 0"
+                )
+        if self.omega_order not in (1, 2, 3):
+            raise ValueError(
+                f"ObserverTuning.omega_order={self.omega_order!r}: use 1 (random walk), "
+                "2 (integrated random walk) or 3"
+            )
+        if self.noise_rel <= 0.0 and (self.sigma_z1 <= 0.0 or self.sigma_z2 <= 0.0):
+            raise ValueError(
+                f"ObserverTuning.noise_rel={self.noise_rel!r}: give noise_rel > 0 "
+                "(e.g. 1e-6 for noise-free data) or both sigma_z1 and sigma_z2 > 0"
+            )
+        if self.innov_tau <= 0.0:
+            raise ValueError(f"ObserverTuning.innov_tau={self.innov_tau!r} s must be > 0")
+        for name in ("sigma0_k_rel", "sigma0_d_rel", "sigma0_m_rel", "sigma0_Omega"):
+            if getattr(self, name) <= 0.0:
+                raise ValueError(
+                    f"ObserverTuning.{name}={getattr(self, name)!r} must be > 0: a zero "
+                    "initial uncertainty freezes that estimate"
+                )
