@@ -43,8 +43,9 @@ class CarrierRecord:
 
 @njit(cache=True)
 def _run(k0, n, t0, h, Phi, Gamma, s, gains, E, noise, par, st, lout, pout, rec, r0,
-         cubic, nsub):  # pragma: no cover
+         cubic, nsub, L, extra, drive_std):  # pragma: no cover
     V = np.empty(2)
+    drawn = extra.shape[0] > 1  # force or drive noise: one row of 8 normals per step
     for j in range(n):
         k = k0 + j
         t = t0 + k * h
@@ -56,7 +57,8 @@ def _run(k0, n, t0, h, Phi, Gamma, s, gains, E, noise, par, st, lout, pout, rec,
             row[10], row[11] = pout[0], pout[1]
         V[0], V[1] = lout[0], lout[1]
         px, py = pout[0], pout[1]
-        resonator_step(Phi, Gamma, s, V, gains, E, noise[j], pout, cubic, nsub, h)
+        resonator_step(Phi, Gamma, s, V, gains, E, noise[j], pout, cubic, nsub, h, L,
+                       extra[j] if drawn else extra[0], drive_std)
         loops_step(px, py, t, h, par, st, lout)
 
 
@@ -87,15 +89,17 @@ class CarrierSimulation:
             raise ValueError(f"record_from {record_from!r} s is after the end of the run "
                              f"({k_end * h:g} s): record from at most the end")
         rec = np.zeros((k_end - r0 + 1, len(COLUMNS)))
-        Phi, Gamma = self.plant.matrices(self.Omega_z, h)
         pl, lo = self.plant, self.loops
         done = 0
-        while done < n:
-            m = min(chunk, n - done)
+        while done < n:  # in chunks that end where the temperature ramp re-discretizes
+            m = min(chunk, n - done, pl.steps_left())
+            Phi, Gamma = pl.matrices(self.Omega_z, h)
             noise = pl.noise.take(m)
+            extra = pl.extra.take(m) if pl.extra.std != 0.0 else np.zeros((1, 8))
             _run(self.k, m, 0.0, h, Phi, Gamma, pl.s, pl.gains, pl.E, noise, lo.par, lo.st,
-                 lo.out, pl.out, rec, r0, pl.cubic, pl.nsub)
+                 lo.out, pl.out, rec, r0, pl.cubic, pl.nsub, pl.L, extra, pl.p.drive_noise)
             self.k += m
+            pl.k += m
             done += m
         last = rec[k_end - r0]
         last[0] = k_end * h

@@ -10,20 +10,25 @@ kappa is the Bryant factor (Coriolis mass over modal mass, 0.8 for an n = 2 ring
 alpha_x, alpha_y are the forcer misalignments (coupling of the x forcer into y and of
 the y forcer into x). Each pick-off has gain P and electronics modelled by a first-order
 lag tau whose phase at the mode frequency is phi (tan phi = omega tau): its voltage is
-V_p = P z, tau z' = q - z + c_ring V_ring, plus feed-through E V of the drive
+V_p = P z, tau z' = q_s - z + c_ring V_ring, plus feed-through E V of the drive
 voltages and white noise. V_ring = ring_amplitude (cos w1 t + cos w2 t) excites the
 pick-offs electrically without moving the ring (the seed's off-resonant ring
-excitation that reveals the relative pick-off phase). It is generated inside the
-resonator (two oscillator states) because a held, staircase ring voltage would pass
-the fast pick-off lags unseen at the sampling instants.
+excitation that reveals the relative pick-off phase), generated inside (two oscillator
+states): a held, staircase ring voltage would pass the fast lags unseen at the samples.
 
-Optional cubic stiffness (eqs. 20-21): k3x x^3 and k3y y^3 add to the restoring
-forces. Without it each step is the exact held-input solution (one matrix
-exponential); with it the step is split symmetrically (Strang): exact linear flow over
-h/2n, a cubic velocity kick over h/n, exact linear flow over h/2n, n times. The
-splitting is time-reversible, so it adds no artificial damping, and its error is
-second order in h/n on the (small) cubic force alone. Cross-cubic terms (eqs. 22-23)
-are not modelled.
+The sensed displacement (non-orthogonal pick-offs): x_s = cos(beta_x) x + sin(beta_x) y,
+y_s = cos(beta_y) y + sin(beta_y) x; beta_x = -beta_y is a pure rotation of both.
+
+Optional cubic stiffness (eqs. 20-23): k3x x^3 + k3xy y^3 adds to the x restoring
+force, k3y y^3 + k3yx x^3 to the y one. Without it each step is the exact held-input
+solution (one matrix exponential); with it the step is split symmetrically (Strang):
+exact linear flow over h/2n, a cubic velocity kick over h/n, exact linear flow over
+h/2n, n times (time-reversible; error second order in h/n on the cubic force alone).
+
+Thermomechanical force noise (m_modal > 0), white drive-voltage noise (drive_noise)
+and a temperature ramp (temperature_rate, tc_f, tc_Q: the step matrices recomputed
+every thermal_update_steps steps at the interval's mid temperature) are derived in
+docs/resonator-physics.md; their noise has its own seeded stream.
 """
 
 from __future__ import annotations
@@ -36,6 +41,7 @@ from numba import njit
 from scipy.linalg import expm
 
 from ..errors import GyroFmuError
+from .noise import NoiseStream, white_noise_covariance
 
 #: Order of the resonator's state vector.
 STATE = ("x", "y", "vx", "vy", "zx", "zy", "ring1_cos", "ring1_sin", "ring2_cos", "ring2_sin")
@@ -44,6 +50,8 @@ INPUTS = ("Vx", "Vy")
 N_STATE = len(STATE)
 #: Earth's rotation rate, rad/s.
 EARTH_RATE = 7.2921150e-5
+#: States the force noise reaches (x, y, vx, vy, zx, zy); Boltzmann constant, J/K.
+N_FORCED, K_B = 6, 1.380649e-23
 
 
 class ResonatorError(GyroFmuError, ValueError):
@@ -87,6 +95,17 @@ class ResonatorParameters:
     ring_frequency_1: float = 3740.0  #: Hz, first ring tone (off resonance)
     ring_frequency_2: float = 4260.0  #: Hz, second ring tone
     noise: float = 0.0  #: V, std of white noise on each pick-off sample
+    beta_x: float = 0.0  #: rad, x pick-off sensing axis tilted toward +y (non-orthogonality)
+    beta_y: float = 0.0  #: rad, y pick-off sensing axis tilted toward +x
+    k3xy: float = 0.0  #: 1/(m^2 s^2), cross-cubic stiffness, k3xy y^3 in the x equation (eq. 22)
+    k3yx: float = 0.0  #: 1/(m^2 s^2), cross-cubic stiffness, k3yx x^3 in the y equation (eq. 23)
+    m_modal: float = 0.0  #: kg, modal mass of the thermomechanical force noise (0 = no noise)
+    temperature: float = 300.0  #: K, resonator temperature at the start of the run
+    drive_noise: float = 0.0  #: V, std of white noise on each held drive voltage sample
+    temperature_rate: float = 0.0  #: K/s, temperature ramp during the run
+    tc_f: float = 0.0  #: 1/K, relative change of f_x and f_y per kelvin (e.g. -30e-6)
+    tc_Q: float = 0.0  #: 1/K, relative change of Q_x and Q_y per kelvin
+    thermal_update_steps: int = 4000  #: steps between re-discretizations during a ramp
 
     @property
     def omega_x(self) -> float:
@@ -162,54 +181,125 @@ def check_resonator(p: ResonatorParameters) -> list[str]:
         if not 0.0 <= getattr(p, name) < 1.5:
             problems.append(f"{name}={getattr(p, name)!r} rad must lie in [0, 1.5): a "
                             "pick-off lag (0 = none)")
-    if p.cubic_substeps < 1:
-        problems.append(f"cubic_substeps={p.cubic_substeps!r} must be >= 1")
-    if p.noise < 0.0:
-        problems.append(f"noise={p.noise!r} V must be >= 0")
+    for name in ("beta_x", "beta_y"):
+        if not abs(getattr(p, name)) < 0.5:
+            problems.append(f"{name}={getattr(p, name)!r} rad must lie in (-0.5, 0.5): a "
+                            "small tilt of the pick-off's axis (0 = on its mode axis)")
+    for name in ("cubic_substeps", "thermal_update_steps"):
+        if getattr(p, name) < 1:
+            problems.append(f"{name}={getattr(p, name)!r} must be >= 1")
+    for name, unit in (("noise", "V"), ("drive_noise", "V"), ("m_modal", "kg"),
+                       ("temperature", "K")):
+        if getattr(p, name) < 0.0:
+            problems.append(f"{name}={getattr(p, name)!r} {unit} must be >= 0")
     if not problems and p.kxy**2 >= p.kxx * p.kyy:
         problems.append(
             f"kxy={p.kxy!r} 1/s^2 makes the stiffness indefinite (kxy^2 >= kxx kyy): "
             "use |kxy| well below the mode stiffnesses"
         )
+    if not problems and p.m_modal > 0.0 and p.dxy**2 >= p.dxx * p.dyy:
+        problems.append(f"dxy={p.dxy!r} 1/s makes the damping indefinite (dxy^2 >= dxx dyy): "
+                        "thermomechanical noise needs a dissipative damping matrix")
     return problems
 
 
-def system_matrices(p: ResonatorParameters, Omega_z: float) -> tuple[np.ndarray, np.ndarray]:
-    """Continuous A (10x10) and B (10x2) of the resonator, pick-off lags and ring tones."""
+def at_temperature(p: ResonatorParameters, dT: float) -> tuple[float, float, float, float]:
+    """(kxx, kyy, dxx, dyy) dT kelvin from the start temperature (tc_f, tc_Q)."""
+    if dT == 0.0:
+        return p.kxx, p.kyy, p.dxx, p.dyy
+    sf, sq = 1.0 + p.tc_f * dT, 1.0 + p.tc_Q * dT
+    if not (sf > 0.0 and sq > 0.0):
+        raise ResonatorError(f"the temperature ramp reached {dT:+g} K, where f or Q would be "
+                             f"<= 0 (tc_f={p.tc_f!r}, tc_Q={p.tc_Q!r}): shorten the run")
+    wx, wy = p.omega_x * sf, p.omega_y * sf
+    return wx**2, wy**2, wx / (p.Q_x * sq), wy / (p.Q_y * sq)
+
+
+def _sensing(p: ResonatorParameters) -> tuple[tuple[int, float, float, float, float], ...]:
+    """(index, tau, beta, weight of own and of other displacement) of each pick-off."""
+    return tuple((i, tau, b, math.cos(b), math.sin(b))
+                 for i, (tau, b) in enumerate(((p.tau_x, p.beta_x), (p.tau_y, p.beta_y))))
+
+
+def system_matrices(p: ResonatorParameters, Omega_z: float,
+                    dT: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Continuous A (10x10) and B (10x2) of the resonator, pick-off lags and ring tones,
+    dT kelvin from the start temperature."""
+    kxx, kyy, dxx, dyy = at_temperature(p, dT)
     A = np.zeros((N_STATE, N_STATE))
     A[0, 2] = A[1, 3] = 1.0
-    A[2, 0], A[2, 1], A[2, 2], A[2, 3] = -p.kxx, -p.kxy, -p.dxx, -(p.dxy - 2 * p.kappa * Omega_z)
-    A[3, 0], A[3, 1], A[3, 2], A[3, 3] = -p.kxy, -p.kyy, -(p.dxy + 2 * p.kappa * Omega_z), -p.dyy
+    A[2, 0], A[2, 1], A[2, 2], A[2, 3] = -kxx, -p.kxy, -dxx, -(p.dxy - 2 * p.kappa * Omega_z)
+    A[3, 0], A[3, 1], A[3, 2], A[3, 3] = -p.kxy, -kyy, -(p.dxy + 2 * p.kappa * Omega_z), -dyy
     B = np.zeros((N_STATE, 2))
     B[2:4, 0:2] = p.forcer
     for j, f in ((6, p.ring_frequency_1), (8, p.ring_frequency_2)):
         A[j, j + 1], A[j + 1, j] = -2 * math.pi * f, 2 * math.pi * f
     ring = p.c_ring * p.ring_amplitude
-    for i, tau in ((0, p.tau_x), (1, p.tau_y)):
+    for i, tau, beta, own, other in _sensing(p):
         if tau > 0.0:
-            A[4 + i, i] = 1.0 / tau
+            A[4 + i, i] = 1.0 / tau if beta == 0.0 else own / tau
+            A[4 + i, 1 - i] = other / tau
             A[4 + i, 4 + i] = -1.0 / tau
             A[4 + i, 6] = A[4 + i, 8] = ring / tau
     return A, B
 
 
-def discretize(p: ResonatorParameters, Omega_z: float, h: float) -> tuple[np.ndarray, np.ndarray]:
+def _algebraic_pickoffs(p: ResonatorParameters, M: np.ndarray) -> None:
+    """Rows of a zero-lag pick-off (tau = 0): z = q_s, the sensed displacement."""
+    for i, tau, beta, own, other in _sensing(p):
+        if tau <= 0.0:
+            M[4 + i] = M[i] if beta == 0.0 else own * M[i] + other * M[1 - i]
+
+
+def discretize(p: ResonatorParameters, Omega_z: float, h: float,
+               dT: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Exact zero-order-hold step: s(t+h) = Phi s(t) + Gamma V (Van Loan).
 
-    A pick-off with zero lag (tau = 0) has its z set algebraically to q.
+    A pick-off with zero lag (tau = 0) has its z set algebraically to q_s.
     """
-    A, B = system_matrices(p, Omega_z)
+    A, B = system_matrices(p, Omega_z, dT)
     n = N_STATE
     M = np.zeros((n + 2, n + 2))
     M[:n, :n], M[:n, n:] = A * h, B * h
     E = expm(M)
     Phi, Gamma = E[:n, :n].copy(), E[:n, n:].copy()
-    for i, tau in ((0, p.tau_x), (1, p.tau_y)):
-        if tau <= 0.0:  # z = q + c_ring V_ring, instantaneous
-            Phi[4 + i] = Phi[i]
+    _algebraic_pickoffs(p, Phi)
+    _algebraic_pickoffs(p, Gamma)
+    for i, tau, *_ in _sensing(p):
+        if tau <= 0.0:  # z = q_s + c_ring V_ring, instantaneous
             Phi[4 + i] += p.c_ring * p.ring_amplitude * (Phi[6] + Phi[8])
-            Gamma[4 + i] = Gamma[i]
     return Phi, Gamma
+
+
+def _velocity_scale(p: ResonatorParameters) -> np.ndarray:
+    return np.array([1.0, 1.0, 1.0 / p.omega_x, 1.0 / p.omega_x, 1.0, 1.0])
+
+
+def force_noise_covariance(p: ResonatorParameters, Omega_z: float, h: float,
+                           dT: float = 0.0) -> np.ndarray:
+    """Covariance (6x6) of the increment of (x, y, vx, vy, zx, zy) over h from white
+    acceleration of two-sided intensity 2 k_B T D / m_modal, computed with the
+    velocities divided by omega_x (noise.white_noise_covariance)."""
+    S = _velocity_scale(p)
+    A = system_matrices(p, Omega_z, dT)[0][:N_FORCED, :N_FORCED] * S[:, None] / S[None, :]
+    _, _, dxx, dyy = at_temperature(p, dT)
+    Qc = np.zeros((N_FORCED, N_FORCED))
+    Qc[2:4, 2:4] = np.array([[dxx, p.dxy], [p.dxy, dyy]]) * (
+        2.0 * K_B * (p.temperature + dT) / p.m_modal / p.omega_x**2)
+    Q = white_noise_covariance(A, Qc, h)
+    return Q / S[:, None] / S[None, :]
+
+
+def force_noise_input(p: ResonatorParameters, Omega_z: float, h: float,
+                      dT: float = 0.0) -> np.ndarray:
+    """L (10 x 6): the force noise's increment over h is L w, w standard normal; L L' is
+    force_noise_covariance (factored with velocities / omega_x, so the positions keep
+    their precision); a zero-lag pick-off copies its q_s rows."""
+    L, S = np.zeros((N_STATE, N_FORCED)), _velocity_scale(p)
+    lam, U = np.linalg.eigh(force_noise_covariance(p, Omega_z, h, dT) * np.outer(S, S))
+    L[:N_FORCED] = (U * np.sqrt(np.clip(lam, 0.0, None))) / S[:, None]
+    _algebraic_pickoffs(p, L)
+    return L
 
 
 @njit(cache=True)
@@ -225,63 +315,37 @@ def _linear(Phi, Gamma, s, V, s_new):  # pragma: no cover
 
 
 @njit(cache=True)
-def resonator_step(Phi, Gamma, s, V, gains, E, noise, out, cubic, nsub, h):  # pragma: no cover
+def resonator_step(Phi, Gamma, s, V, gains, E, noise, out, cubic, nsub, h,
+                   L, w, drive_std):  # pragma: no cover
     """Advance s in place over one held step h and write the pick-off voltages to out.
 
     gains = (Px, Py); E = feed-through (2x2) of the held V = (Vx, Vy); noise = 2 samples.
-    cubic = (k3x, k3y): if both are 0, Phi, Gamma are the exact step over h; otherwise
-    over h / (2 nsub), and the step is nsub Strang splittings around cubic kicks.
+    cubic = (k3x, k3y, k3xy, k3yx): if all are 0, Phi, Gamma are the exact step over h;
+    otherwise over h / (2 nsub), and the step is nsub Strang splittings around cubic
+    kicks. w = 8 standard normals: L w[:6] is the force noise's increment over h (L of
+    zero size: none), drive_std w[6:8] the drive voltages' noise held over the step.
     """
     s_new = np.empty(s.size)
-    if cubic[0] == 0.0 and cubic[1] == 0.0:
+    if drive_std != 0.0:
+        V = np.array([V[0] + drive_std * w[6], V[1] + drive_std * w[7]])
+    if cubic[0] == 0.0 and cubic[1] == 0.0 and cubic[2] == 0.0 and cubic[3] == 0.0:
         _linear(Phi, Gamma, s, V, s_new)
     else:
         dt = h / nsub
         for _ in range(nsub):
             _linear(Phi, Gamma, s, V, s_new)
-            s[2] -= cubic[0] * s[0] ** 3 * dt
-            s[3] -= cubic[1] * s[1] ** 3 * dt
+            x, y = s[0], s[1]
+            s[2] -= (cubic[0] * x**3 + cubic[2] * y**3) * dt
+            s[3] -= (cubic[1] * y**3 + cubic[3] * x**3) * dt
             _linear(Phi, Gamma, s, V, s_new)
+    if L.shape[0] > 0:
+        for i in range(L.shape[0]):
+            acc = 0.0
+            for j in range(L.shape[1]):
+                acc += L[i, j] * w[j]
+            s[i] += acc
     for i in range(2):
         out[i] = gains[i] * s[4 + i] + E[i, 0] * V[0] + E[i, 1] * V[1] + noise[i]
-
-
-class NoiseStream:
-    """Seeded pick-off noise drawn in blocks: the same sequence however it is consumed,
-    so an FMU drawing one sample pair per step equals an in-process run."""
-
-    BLOCK = 4096
-
-    def __init__(self, std: float, seed: int) -> None:
-        self.std = std
-        self.rng = np.random.Generator(np.random.PCG64(seed))
-        self.block = np.zeros((0, 2))
-        self.pos = 0
-
-    def take(self, n: int) -> np.ndarray:
-        """The next n sample pairs (n x 2)."""
-        if self.std == 0.0:
-            return np.zeros((n, 2))
-        out = np.empty((n, 2))
-        filled = 0
-        while filled < n:
-            if self.pos == len(self.block):
-                self.block = self.rng.standard_normal((self.BLOCK, 2)) * self.std
-                self.pos = 0
-            k = min(n - filled, len(self.block) - self.pos)
-            out[filled:filled + k] = self.block[self.pos:self.pos + k]
-            filled += k
-            self.pos += k
-        return out
-
-    def get_state(self) -> dict:
-        return {"rng": self.rng.bit_generator.state, "block": self.block.tolist(),
-                "pos": self.pos}
-
-    def set_state(self, state: dict) -> None:
-        self.rng.bit_generator.state = state["rng"]
-        self.block = np.array(state["block"], dtype=float).reshape(-1, 2)
-        self.pos = int(state["pos"])
 
 
 class ResonatorModel:
@@ -299,37 +363,63 @@ class ResonatorModel:
         else:
             self.s = np.array(initial_state, float)
         self.gains = np.array([p.Px, p.Py])
-        self.cubic = np.array([p.k3x, p.k3y])
+        self.cubic = np.array([p.k3x, p.k3y, p.k3xy, p.k3yx])
         self.nsub = int(p.cubic_substeps)
         self.E = p.feedthrough
         self.noise = NoiseStream(p.noise, seed)
-        self._key: tuple[float, float] | None = None
+        #: force and drive noise: 6 + 2 normals per step, its own generator
+        self.extra = NoiseStream(1.0 if p.m_modal > 0.0 or p.drive_noise > 0.0 else 0.0,
+                                 seed, width=N_FORCED + 2, stream=1)
+        self.extra.prime()
+        self.ramp = p.temperature_rate != 0.0
+        self.k = 0  #: steps taken (the temperature ramp's clock)
+        self._key: tuple | None = None
         self.out = np.zeros(2)
         ring = p.c_ring * p.ring_amplitude * (self.s[6] + self.s[8])
-        z0 = [self.s[4 + i] if tau > 0 else self.s[i] + ring
-              for i, tau in enumerate((p.tau_x, p.tau_y))]
-        self.out[:] = self.gains * np.array(z0) + self.noise.take(1)[0]
+        z = self.s[:, None].copy()
+        _algebraic_pickoffs(p, z)  # a zero-lag pick-off: z = q_s + the ring voltage
+        z0 = z[4:6, 0] + np.array([0.0 if tau > 0 else ring for tau in (p.tau_x, p.tau_y)])
+        self.out[:] = self.gains * z0 + self.noise.take(1)[0]
+
+    def steps_left(self) -> int:
+        """Steps until the temperature ramp changes the step matrices (or a large n)."""
+        N = self.p.thermal_update_steps
+        return N - self.k % N if self.ramp else 1 << 62
+
+    def temperature_offset(self, h: float) -> float:
+        """K from the start temperature of the middle of the current thermal interval."""
+        N = self.p.thermal_update_steps
+        return self.p.temperature_rate * ((self.k // N) * N + N / 2) * h if self.ramp else 0.0
 
     def matrices(self, Omega_z: float, h: float) -> tuple[np.ndarray, np.ndarray]:
-        """Phi, Gamma over h, or over h / (2 nsub) with cubic stiffness."""
-        if self._key != (Omega_z, h):
-            linear = self.cubic[0] == 0.0 and self.cubic[1] == 0.0
+        """Phi, Gamma over h, or over h / (2 nsub) with cubic stiffness; self.L, the
+        force noise's input over h (zero size without force noise), is set alongside."""
+        dT = self.temperature_offset(h)
+        if self._key != (Omega_z, h, dT):
+            linear = not self.cubic.any()
             self._Phi, self._Gamma = discretize(
-                self.p, Omega_z, h if linear else h / (2 * self.nsub))
-            self._key = (Omega_z, h)
+                self.p, Omega_z, h if linear else h / (2 * self.nsub), dT)
+            self.L = (force_noise_input(self.p, Omega_z, h, dT) if self.p.m_modal > 0.0
+                      else np.zeros((0, N_FORCED)))
+            self._key = (Omega_z, h, dT)
         return self._Phi, self._Gamma
 
     def step(self, V: np.ndarray, Omega_z: float, h: float) -> np.ndarray:
         """Hold V = (Vx, Vy) over h; returns (V_px, V_py) at the end."""
         Phi, Gamma = self.matrices(Omega_z, h)
         resonator_step(Phi, Gamma, self.s, V, self.gains, self.E, self.noise.take(1)[0],
-                       self.out, self.cubic, self.nsub, h)
+                       self.out, self.cubic, self.nsub, h, self.L, self.extra.take(1)[0],
+                       self.p.drive_noise)
+        self.k += 1
         return self.out
 
     def get_state(self) -> dict:
-        return {"s": self.s.tolist(), "out": self.out.tolist(), "noise": self.noise.get_state()}
+        return {"s": self.s.tolist(), "out": self.out.tolist(), "noise": self.noise.get_state(),
+                "extra": self.extra.get_state(), "k": self.k}
 
     def set_state(self, state: dict) -> None:
         self.s[:] = state["s"]
         self.out[:] = state["out"]
         self.noise.set_state(state["noise"])
+        self.extra.set_state(state["extra"])
+        self.k = int(state["k"])
