@@ -1,8 +1,9 @@
 """GyroObserver.fmu: the augmented state observer of US 2011/0314910 A1 (eqs. 5-9)."""
 
 import numpy as np
+from pythonfmu.enums import Fmi2Status
 
-from gyro_fmu.estimation.observer import ObserverTuning
+from gyro_fmu.estimation.observer import ObserverDivergedError, ObserverTuning
 from gyro_fmu.fmu.slave import GyroSlave, Var, dataclass_from_parameters, dataclass_parameters
 from gyro_fmu.model.parameters import DEFAULT_PRESET, PARAMETER_BOUNDS, PARAMETER_UNITS, PRESETS
 from gyro_fmu.system.scenario import default_initial_guess
@@ -22,7 +23,8 @@ class GyroObserver(GyroSlave):
     2: vx, vy) it estimates the states and the 8 unknowns kxx, kyy, kxy, dxx, dyy, dxy,
     m and Omega_z with 1-sigma uncertainties. Inputs are held over each communication
     step exactly as GyroPlant holds them; outputs at t+h are predictions from data up
-    to t."""
+    to t. Output status: 0 ok, 1 warning, 2 lost (then the step is refused with
+    fmi2Discard and the cause logged)."""
 
     description = " ".join((__doc__ or "").split())
     VARIABLES = (
@@ -47,6 +49,12 @@ class GyroObserver(GyroSlave):
           for n in _ESTIMATED),
         *(Var(f"sigma_{n}", "output", 0.0, _UNITS[n], f"1-sigma uncertainty of {n}", min=0.0)
           for n in _ESTIMATED),
+        Var("status", "output", 0.0, "1",
+            "observer health: 0 ok; 1 warning (innovations outside their band, logged: the "
+            "estimates may be off more than their sigmas say); 2 lost (the filter diverged "
+            "or lost its numerical footing: the step is refused with fmi2Discard and the "
+            "cause logged, every other output NaN). A Real so that hosts reading every "
+            "output as Real get it", min=0.0, max=2.0),
     )
 
     #: `gyro-fmu doctor`'s C-host check: None, no inputs set and every Real output read.
@@ -84,7 +92,17 @@ class GyroObserver(GyroSlave):
             z1, z2 = self.x_meas, self.y_meas
         else:
             z1, z2 = self.vx_meas, self.vy_meas
-        self.observer.step(self.ux, self.uy, z1, z2, h)
+        try:
+            self.observer.step(self.ux, self.uy, z1, z2, h)
+        except ObserverDivergedError as exc:  # the instance cannot go on: fmi2Discard now,
+            self.failed = str(exc)  # fmi2Error from then on (restore an earlier FMU state)
+            self._outputs_not_a_number()
+            self.status = 2.0
+            raise
+        if self.observer.status != self.status:
+            if self.observer.status == 1:
+                self.log(f"{self.modelName}: {self.observer.warning}", Fmi2Status.warning)
+            self.status = float(self.observer.status)
         self._publish()
 
     def _publish(self) -> None:

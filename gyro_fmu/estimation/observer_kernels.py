@@ -27,8 +27,9 @@ I_OM = 11  #: index of Omega_z in the filter state
 KMAX = 24  #: most Taylor terms (||A h|| <= 0.5 needs 18)
 _STEP_NORM = 0.5  # longer steps are split into equal sub-steps
 #: Monitor accumulators and results (the observer's `mon` array).
-M_NIS, M_REL, M_COUNT, M_STATUS, M_CAUSE, M_WHICH, M_VALUE, M_BLOCK = range(8)
-N_MON = 8
+(M_NIS, M_REL, M_REL_Y, M_COUNT, M_STATUS, M_CAUSE, M_WHICH, M_VALUE, M_BLOCK, M_LAST_NIS,
+ M_LAST_REL, M_PREV, M_AC, M_SQ, M_LAST_CORR) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 13, 15, 17)
+N_MON = 18  #: M_PREV, M_AC, M_SQ: two entries each (z1, z2)
 #: Monitor verdicts (observer_monitor.check): 0 ok, 1 warning, >= 2 lost, by cause.
 C_OK, C_WARN, C_NONFINITE, C_NOT_SPD, C_BOUNDS, C_INNOVATIONS = range(6)
 _J = np.arange(KMAX)
@@ -273,12 +274,16 @@ def correct(model, noise, x, P, peak, nu2, mon, z1, z2, h):  # pragma: no cover
                 P[i, j] -= K[i, 0] * PHt[j, 0] + K[i, 1] * PHt[j, 1]
     # monitor: NIS = nu' S^-1 nu (2 dof) and the innovations relative to the signal
     mon[M_NIS] += nu0 * (s00 * nu0 + s01 * nu1) + nu1 * (s10 * nu0 + s11 * nu1)
-    rel = 0.0
+    mon[M_AC] += nu0 * mon[M_PREV]  # lag-1 autocorrelation of each innovation sequence
+    mon[M_AC + 1] += nu1 * mon[M_PREV + 1]
+    mon[M_SQ] += nu0 * nu0
+    mon[M_SQ + 1] += nu1 * nu1
+    mon[M_PREV] = nu0
+    mon[M_PREV + 1] = nu1
     if peak[0] > 0.0:
-        rel += (nu0 / peak[0]) ** 2
+        mon[M_REL] += (nu0 / peak[0]) ** 2
     if peak[1] > 0.0:
-        rel += (nu1 / peak[1]) ** 2
-    mon[M_REL] += 0.5 * rel
+        mon[M_REL_Y] += (nu1 / peak[1]) ** 2
     mon[M_COUNT] += 1.0
 
 

@@ -9,11 +9,11 @@ The compiled check (observer_kernels.check) runs after every step and judges:
   natural frequency (a gyro's rate is far below its resonance);
 - the innovations over blocks of BLOCK corrections: with absolute noise stds given
   (sigma_z1, sigma_z2), the mean normalized innovation squared (NIS, chi-square with 2
-  dof per correction: mean 2) against its chi-square band: above the 0.999 quantile a
+  dof per correction: mean 2) against its chi-square band: above the 0.9999 quantile a
   warning (status 1), above NIS_LOST lost; in relative mode (R adapts to the innovations,
   so NIS says little) the RMS innovation relative to each signal's running peak:
-  above REL_WARN a warning, above REL_LOST lost (the one-step predictions miss by that
-  fraction of the signal).
+  above REL_LOST lost (the one-step predictions miss by that
+  fraction of the signal), a warning above REL_WARN x noise_rel.
 
 A lost filter raises ObserverDivergedError (a GyroFmuError) naming the cause and the
 remedies; every later step raises it again. Thresholds and measurements:
@@ -39,11 +39,17 @@ from .observer_kernels import (
     C_WARN,
     I_OM,
     I_PAR,
+    M_AC,
     M_BLOCK,
     M_CAUSE,
     M_COUNT,
+    M_LAST_CORR,
+    M_LAST_NIS,
+    M_LAST_REL,
     M_NIS,
     M_REL,
+    M_REL_Y,
+    M_SQ,
     M_STATUS,
     M_VALUE,
     M_WHICH,
@@ -52,11 +58,22 @@ from .observer_kernels import (
 
 #: Corrections per block of the innovation tests (1 ms at the default 5 us step).
 BLOCK = 200
-#: Lost when the block mean NIS exceeds this (innovations ~5 sigma RMS; expected 2).
-NIS_LOST = 50.0
-#: Relative mode: warning / lost above these block RMS innovations relative to the peak.
-REL_WARN = 1.0e-2
+#: Warning above the chi-square quantile of this normal quantile (p = 1e-4 per block).
+NIS_WARN_Z = 3.719
+#: Lost when the block mean NIS exceeds this (innovations ~70 sigma RMS; expected 2): a
+#: noise 10x larger than told gives ~200 (a warning), a diverged filter 1e6 and more.
+NIS_LOST = 1.0e4
+#: Relative mode: warning above REL_WARN x noise_rel (the innovations exceed the noise
+#: the observer was told: its sigmas are too small, or the noise larger than told), lost
+#: above REL_LOST, block RMS innovations relative to each signal's peak.
+REL_WARN = 1.5
 REL_LOST = 0.2
+#: Warning when an innovation sequence's lag-1 autocorrelation over a block exceeds
+#: CORR_WARN (white: 0 +- 0.07) while the mean NIS exceeds NIS_MIN: the innovations are
+#: a slowly varying misfit, not noise, so the sigmas (which assume white noise) are too
+#: small. A converged noise-free filter has NIS ~1e-8 and is not flagged.
+CORR_WARN = 0.5
+NIS_MIN = 0.1
 #: kxx, kyy and 1/m must stay within this factor of their initial guesses.
 RATIO = 100.0
 
@@ -76,6 +93,8 @@ class MonitorLimits(NamedTuple):
     ratio: float  #: lost when kxx, kyy or 1/m leave [theta0 / ratio, theta0 ratio]
     d_max: float  #: lost when |dxx|, |dyy| or |dxy| exceed this (1/s)
     omega_max: float  #: lost when |Omega_z| exceeds this (rad/s)
+    corr_warn: float  #: warning above this lag-1 autocorrelation of the innovations ...
+    nis_min: float  #: ... when their block mean NIS is above this (not negligible)
 
 
 class ObserverDivergedError(GyroFmuError):
@@ -95,14 +114,15 @@ def chi2_quantile(dof: int, z: float) -> float:
 def limits(model: kern.ObserverModel, tuning, pair) -> tuple:
     """The MonitorLimits of an observer, as a plain tuple (numba calls it faster)."""
     absolute = tuning.sigma_z1 > 0.0 and tuning.sigma_z2 > 0.0
-    # 0.999 quantile of chi-square with 2 BLOCK dof, as a mean per correction
-    nis_warn = chi2_quantile(2 * BLOCK, 3.090232) / BLOCK
+    # 0.9999 quantile of chi-square with 2 BLOCK dof, as a mean per correction
+    nis_warn = chi2_quantile(2 * BLOCK, NIS_WARN_Z) / BLOCK
     w_max = math.sqrt(max(model.theta0[0], model.theta0[1]))
     w_min = math.sqrt(min(model.theta0[0], model.theta0[1]))
     d_max = max(2.0 * w_max, RATIO * float(model.scale[3]))
     return tuple(MonitorLimits(
         block=BLOCK, absolute=absolute, nis_warn=nis_warn, nis_lost=NIS_LOST,
-        rel_warn=REL_WARN, rel_lost=REL_LOST, ratio=RATIO, d_max=d_max, omega_max=w_min))
+        rel_warn=REL_WARN * tuning.noise_rel, rel_lost=REL_LOST, ratio=RATIO, d_max=d_max,
+        omega_max=w_min, corr_warn=CORR_WARN, nis_min=NIS_MIN))
 
 
 def _cause(mon, lim: MonitorLimits) -> str:
@@ -152,13 +172,16 @@ def lost_message(mon, observer, h: float) -> str:
 def warning_message(mon, lim_t: tuple, t: float) -> str:
     """The warning of status 1 (innovations above their band), in one line."""
     lim = MonitorLimits(*lim_t)
-    value = mon[kern.M_VALUE]
-    if lim.absolute:
+    value = mon[M_VALUE]
+    if int(mon[M_WHICH]) == 2:
+        what = (f"its innovations are not white (lag-1 autocorrelation {value:.2g} over "
+                f"{lim.block} corrections): a misfit the sigmas do not count")
+    elif lim.absolute:
         what = (f"mean normalized innovation squared {value:.3g} over {lim.block} "
-                f"corrections, above its chi-square 0.999 band ({lim.nis_warn:.3g})")
+                f"corrections, above its chi-square 0.9999 band ({lim.nis_warn:.3g})")
     else:
-        what = (f"one-step predictions miss by {100 * value:.3g} % RMS of the signal "
-                f"(above {100 * lim.rel_warn:g} %)")
+        what = (f"one-step predictions miss by {value:.3g} RMS of the signal, above "
+                f"{lim.rel_warn / REL_WARN:.3g} (noise_rel) x {REL_WARN:g}")
     return (f"observer at t={t:.6g} s: {what}: the estimates may be off (initial guesses "
             f"far, or noise larger than told)")
 
@@ -236,11 +259,21 @@ def check(model, lim, x, P, L, mon):  # pragma: no cover
     count = mon[M_COUNT]
     if count >= lim.block:
         nis = mon[M_NIS] / count
-        rel = math.sqrt(mon[M_REL] / count)
+        rel = math.sqrt(max(mon[M_REL], mon[M_REL_Y]) / count)  # the worse signal's
+        corr = 0.0  # the larger lag-1 autocorrelation of the two innovation sequences
+        for j in range(2):
+            if mon[M_SQ + j] > 0.0:
+                corr = max(corr, mon[M_AC + j] / mon[M_SQ + j])
+            mon[M_AC + j] = 0.0
+            mon[M_SQ + j] = 0.0
+        mon[M_LAST_CORR] = corr
         mon[M_NIS] = 0.0
         mon[M_REL] = 0.0
+        mon[M_REL_Y] = 0.0
         mon[M_COUNT] = 0.0
         mon[M_BLOCK] += 1.0
+        mon[M_LAST_NIS] = nis
+        mon[M_LAST_REL] = rel
         status = C_OK
         if lim.absolute:
             if nis > lim.nis_lost:
@@ -255,5 +288,9 @@ def check(model, lim, x, P, L, mon):  # pragma: no cover
         if status == C_WARN:
             mon[M_WHICH] = 0 if lim.absolute else 1
             mon[M_VALUE] = nis if lim.absolute else rel
+        elif corr > lim.corr_warn and nis > lim.nis_min:
+            status = C_WARN
+            mon[M_WHICH] = 2
+            mon[M_VALUE] = corr
         mon[M_STATUS] = status
     return int(mon[M_STATUS])

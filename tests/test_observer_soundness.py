@@ -1,0 +1,149 @@
+"""Issue 15, parts 1-2: the observer converges or refuses by name, at any step, start, scale.
+
+The issue's silent failures (steps of 2.5 and 3 us, Omega_z_0 = 1.4, a 0.5 kg proof mass
+with 2e-15 m displacements) now converge; a filter that is lost raises
+ObserverDivergedError, and GyroObserver.fmu then publishes status 2 and refuses the step
+with fmi2Discard and the cause in its log; `gyro-fmu run` ends with exit code 2.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from fmu_harness import Instance
+
+from gyro_fmu.errors import GyroFmuError
+from gyro_fmu.estimation.observer import GyroStateObserver, ObserverDivergedError, ObserverTuning
+from gyro_fmu.estimation.observer_monitor import cholesky_ok
+from gyro_fmu.model.drive import TwoToneDrive
+from gyro_fmu.model.parameters import GyroParameters, preset
+from gyro_fmu.model.plant import GyroPlantModel, MeasurementNoise
+from gyro_fmu.system.scenario import observer_tuning, scenario
+
+
+def run(h: float, n: int, Omega_z_0: float = 0.0, overrides: dict | None = None,
+        drive: TwoToneDrive | None = None, tuning: dict | None = None,
+        check_spd_every: int = 0) -> GyroStateObserver:
+    """The default scenario in-process (as gyro-fmu run), noise-free, n steps of h."""
+    sc = scenario("default", Omega_z_0=Omega_z_0, overrides=overrides or {})
+    sc = sc.with_(drive=drive) if drive is not None else sc
+    plant = GyroPlantModel(sc.params)
+    tun = {**observer_tuning(sc, MeasurementNoise()), **(tuning or {})}
+    obs = GyroStateObserver(GyroParameters(**sc.initial_guess), Omega_z_0, 1,
+                            ObserverTuning(**tun))
+    d = sc.the_drive
+    L = np.zeros_like(obs.P)
+    for k in range(n):
+        ux = d.ux(k * h)
+        z = plant.measured()
+        obs.step(ux, 0.0, z[0], z[2], h)
+        plant.step(ux, 0.0, 1.0, h)
+        if check_spd_every and k % check_spd_every == 0:
+            assert cholesky_ok(obs.P, L), k
+    return obs
+
+
+@pytest.mark.parametrize(("h", "n", "Omega_z_0", "overrides"), [
+    (3e-6, 999, 0.0, {}),  # was Omega_hat -7.66, every sigma 0 at 1 ms
+    (2.5e-6, 2000, 0.0, {}),  # was -3.9e4 at 1 ms, NaN from 2.9-4.2 ms
+    (5e-6, 1200, 1.4, {}),  # was Omega_hat 527, kyy 1.3e11, sigma 0, exit 0
+    (5e-6, 1000, 0.0, {"m": 0.5}),  # displacements ~1e-15 m: was -15.0 with sigma 0
+], ids=["3us", "2.5us", "Omega_z_0=1.4", "m=0.5"])
+def test_the_issues_silent_failures_now_converge(h, n, Omega_z_0, overrides):
+    obs = run(h, n, Omega_z_0, overrides, check_spd_every=50)
+    e, s = obs.estimates(), obs.sigmas()
+    assert obs.status == 0
+    assert abs(e["Omega_z"] - 1.0) < 0.01 and 0.0 < s["Omega_z"] < 0.01, (e, s)
+    truth = preset(**overrides)
+    for name in ("kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m"):
+        assert abs(e[name] / getattr(truth, name) - 1.0) < 0.01, name
+        assert s[name] > 0.0, name
+
+
+def test_a_gyro_driven_1e7_times_softer_gives_the_same_relative_errors():
+    """Every prior and floor scales with the signal: 3e-9 m and 3e-16 m displacements."""
+    loud = run(5e-6, 1000)
+    soft = run(5e-6, 1000, drive=TwoToneDrive(A1=1e-14, A2=1e-14))
+    assert abs(soft.state_estimate()[0]) < 1e-15
+    for name in GyroStateObserver.ESTIMATED:
+        a, b = loud.estimates()[name], soft.estimates()[name]
+        assert b == pytest.approx(a, rel=1e-6, abs=1e-9), name
+        assert soft.sigmas()[name] == pytest.approx(loud.sigmas()[name], rel=1e-3), name
+
+
+def junk_steps(obs: GyroStateObserver, n: int) -> None:
+    """Measurements that no gyro makes: white 1e-9 m junk told as 1e-12 m noise."""
+    rng = np.random.default_rng(0)
+    d = TwoToneDrive()
+    for k in range(n):
+        obs.step(d.ux(k * 5e-6), 0.0, 1e-9 * rng.standard_normal(),
+                 1e-9 * rng.standard_normal(), 5e-6)
+
+
+def test_a_lost_filter_raises_a_named_error_and_refuses_every_later_step():
+    obs = GyroStateObserver(preset(), 0.0, 1, ObserverTuning(sigma_z1=1e-12, sigma_z2=1e-12))
+    with pytest.raises(ObserverDivergedError, match="observer lost at t=") as info:
+        junk_steps(obs, 100)
+    assert isinstance(info.value, GyroFmuError)
+    assert "physical range" in str(info.value) and "initial" in str(info.value)
+    assert obs.status == 2
+    state = obs.get_state()
+    with pytest.raises(ObserverDivergedError, match="observer lost"):
+        obs.step(0.0, 0.0, 0.0, 0.0, 5e-6)
+    other = GyroStateObserver(preset())
+    other.set_state(state)
+    assert other.status == 2 and other.lost == obs.lost
+
+
+def test_noise_larger_than_told_is_a_warning_not_silence():
+    """Absolute noise stds 10x too small: the block NIS (~200) leaves its chi-square band."""
+    p = preset()
+    sc = scenario("default", noise=1e-4)
+    drive = sc.the_drive
+    plant = GyroPlantModel(p, MeasurementNoise(x=3e-13, vx=0.0, y=3e-13, vy=0.0), 1)
+    obs = GyroStateObserver(GyroParameters(**sc.initial_guess), 0.0, 1,
+                            ObserverTuning(sigma_z1=3e-14, sigma_z2=3e-14, q_Omega=0.0,
+                                           omega_order=1))
+    for k in range(1000):
+        ux = drive.ux(k * 5e-6)
+        z = plant.measured()
+        obs.step(ux, 0.0, z[0], z[2], 5e-6)
+        plant.step(ux, 0.0, 1.0, 5e-6)
+    assert obs.status == 1
+    assert "chi-square" in obs.warning and "noise larger than told" in obs.warning
+
+
+def test_the_fmu_publishes_status_and_refuses_a_lost_filter_with_its_cause(models_dir):
+    params = {"sigma_z1": 1e-12, "sigma_z2": 1e-12}
+    obs = Instance(models_dir / "GyroObserver.fmu", "lost-observer", params)
+    assert obs.vars["status"].causality == "output"
+    assert obs.get(["status"]) == [0.0]
+    rng = np.random.default_rng(0)
+    codes = []
+    for k in range(20):
+        obs.set({"ux": 1e-7 * math.sin(2 * math.pi * 4000 * k * 5e-6),
+                 "x_meas": 1e-9 * rng.standard_normal(), "y_meas": 1e-9 * rng.standard_normal()})
+        codes.append(obs.step(5e-6))
+        if codes[-1]:
+            break
+    assert codes[-1] == 2  # fmi2Discard
+    assert obs.get(["status"]) == [2.0]
+    assert all(math.isnan(v) for v in obs.get(["Omega_hat", "kxx_hat", "sigma_Omega_z"]))
+    log = obs.messages()
+    assert "discarded: observer lost at t=" in log and "physical range" in log, log
+    assert obs.step(5e-6) in (2, 3)  # and it does not go on
+    obs.close()
+
+
+def test_gyro_fmu_run_stops_with_exit_2_naming_the_lost_observer(models_dir, tmp_path, capsys):
+    """Noise 1e-3 of the peak told as 1e-15 m: lost at the first steps."""
+    from gyro_fmu.cli import main
+
+    argv = ["run", "--stop-time", "0.001", "--noise", "1e-3", "--tuning", "sigma_z1=1e-15",
+            "--tuning", "sigma_z2=1e-15", "--out", str(tmp_path), "--no-figures",
+            "--models", str(models_dir)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "observer" in err and "refused the step" in err and "observer lost at t=" in err, err
