@@ -241,13 +241,15 @@ class GyroStateObserver:
 
     def _start_prior(self, ux: float, uy: float, z1: float, z2: float) -> None:
         """Scale-invariant prior of [x, vx, y, vy]: at rest (variance 0) until the first
-        nonzero measurement or drive, then 1-sigma = the size of that signal, in m (the
-        larger of the measured displacement and the static deflection b |u| / k of the
-        guess), and that times the guessed natural frequency for the velocities."""
-        th = self.theta0
+        drive or measurement above its noise (3 sigma_z; any nonzero one in relative noise
+        mode), then 1-sigma = PRIOR_FRACTION of the size of that signal, in m (the larger
+        of the measured displacement and the static deflection b |u| / k of the guess),
+        and that times the guessed natural frequency for the velocities."""
+        th, tun = self.theta0, self.tuning
         g = self._model.hgain
-        size = max(abs(z1) / g[0], abs(z2) / g[1], th[6] * abs(ux) / th[0],
-                   th[6] * abs(uy) / th[1])
+        zs = [abs(z) / gj if abs(z) > 3.0 * sz else 0.0
+              for z, gj, sz in ((z1, g[0], tun.sigma_z1), (z2, g[1], tun.sigma_z2))]
+        size = max(*zs, th[6] * abs(ux) / th[0], th[6] * abs(uy) / th[1])
         if not size > 0.0:
             return
         np.maximum(self.peak, size * g, out=self.peak)
