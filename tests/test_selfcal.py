@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from gyro_fmu.cli import main
+from gyro_fmu.selfcal.alarms import CalibrationRefusedError
 from gyro_fmu.selfcal.allan import allan_deviation
 from gyro_fmu.selfcal.estimator import transfer
 from gyro_fmu.selfcal.inprocess import CarrierSimulation
@@ -170,7 +171,10 @@ def test_selfcal_reproduces_the_rate_table_without_rotation(clean_calibration) -
 def test_earth_rate_is_separated_from_bias_by_mode_reversal() -> None:
     rate = 2e-4  # rad/s, a few earth rates: clean data resolves it exactly
     fitted = self_calibrate(TRUE, replace(SMALL, Omega_z=rate))
-    assumed = self_calibrate(TRUE, replace(SMALL, Omega_z=rate, fixed_rate=0.0))
+    # holding the rate at 0 while it is not: the model cannot fit, the alarm says so
+    with pytest.raises(CalibrationRefusedError, match="does not fit") as refused:
+        self_calibrate(TRUE, replace(SMALL, Omega_z=rate, fixed_rate=0.0))
+    assumed = refused.value.result
     still = self_calibrate(TRUE, SMALL)
     assert abs(fitted.physical["Omega_z"] - rate) < 1e-6
     assert abs(fitted.bias - still.bias) < 1e-6

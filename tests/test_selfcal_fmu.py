@@ -132,12 +132,20 @@ def test_bad_input_is_refused_with_a_message_and_never_crashes(models_dir, name,
 
 def test_selfcal_through_the_fmus_equals_the_in_process_calibration(models_dir):
     """The whole sequence on the FMU engine gives the same calibration, bit for bit."""
+    from gyro_fmu.selfcal.alarms import CalibrationRefusedError
     from gyro_fmu.selfcal.sequence import SelfCalConfig, self_calibrate
 
     cfg = SelfCalConfig(settle=1.0, record=2.5, sideband_spacing=0.4, sideband_count=2,
                         ff_duration=0.2, models_dir=str(models_dir))
     res = ResonatorParameters(noise=2.5e-4)
-    fmu = self_calibrate(res, dataclasses.replace(cfg, engine="fmu"))
-    lib = self_calibrate(res, cfg)
+
+    def calibrate(cfg: SelfCalConfig):
+        try:
+            return self_calibrate(res, cfg)
+        except CalibrationRefusedError as exc:  # 1 s of settling: the misfit alarm may
+            return exc.result  # trip; the untrusted results must still be identical
+
+    fmu = calibrate(dataclasses.replace(cfg, engine="fmu"))
+    lib = calibrate(cfg)
     assert np.array_equal(fmu.fit.x, lib.fit.x)
     assert fmu.bias == lib.bias and fmu.scale_factor == lib.scale_factor

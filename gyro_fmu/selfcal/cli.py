@@ -5,12 +5,14 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from dataclasses import fields, replace
 from pathlib import Path
 
 import numpy as np
 
 from ..model.parameters import ParameterError
+from .alarms import CalibrationRefusedError
 from .loops import LoopsError
 from .phasors import PhasorError
 from .resonator import EARTH_RATE, ResonatorError, ResonatorParameters, check_resonator
@@ -44,7 +46,31 @@ def _resonator(args: argparse.Namespace) -> ResonatorParameters:
     return res
 
 
-def _config(args: argparse.Namespace) -> SelfCalConfig:
+def _loop_overrides(args: argparse.Namespace) -> dict[str, float]:
+    from .design import USER_LOOPS
+
+    out: dict[str, float] = {}
+    for item in getattr(args, "loop", None) or []:
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep:
+            raise ParameterError(f"--loop {item!r} must read NAME=VALUE, e.g. pll_bandwidth=30")
+        if name not in USER_LOOPS:
+            raise ParameterError(f"--loop {item!r}: {name!r} is not a loop setting the "
+                                 f"sequence leaves to you; known: {', '.join(USER_LOOPS)} "
+                                 "(sidebands: --index, --spacing, --sidebands)")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise ParameterError(f"--loop {item!r}: {value!r} is not a number") from None
+    return out
+
+
+def _config(args: argparse.Namespace, res: ResonatorParameters) -> SelfCalConfig:
+    """The calibration designed for the resonator given (its values are the nominal
+    ones the loops are designed from), with the command line's overrides."""
+    from .design import design
+
     omega = 0.0
     if args.latitude is not None:
         if not -90.0 <= args.latitude <= 90.0:
@@ -52,14 +78,17 @@ def _config(args: argparse.Namespace) -> SelfCalConfig:
         omega = EARTH_RATE * math.sin(math.radians(args.latitude))
     values = {"seed": args.seed, "Omega_z": omega, "engine": getattr(args, "engine", "inprocess")}
     for name in ("record", "settle", "sideband_count", "sideband_index", "sideband_spacing",
-                 "kappa"):
+                 "kappa", "max_record", "target_bias", "target_sf_ppm"):
         value = getattr(args, name, None)
         if value is not None:
             values[name] = value
-    for name in ("record", "settle", "sideband_spacing", "kappa"):
+    for name in ("record", "settle", "sideband_spacing", "kappa", "max_record", "target_bias",
+                 "target_sf_ppm"):
         if name in values and not values[name] > 0:
             raise ParameterError(f"--{name.replace('_', '-')} {values[name]!r} must be > 0")
-    return SelfCalConfig(**values)
+    if getattr(args, "record", None) is not None:
+        values["auto_record"] = False  # the user's record length, checked, not changed
+    return design(res, loops=_loop_overrides(args), **values)
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -71,6 +100,9 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="temperature-like drift: shift both modes by DF_HZ, scale dampings")
     p.add_argument("--latitude", type=float,
                    help="deg: earth rate times sin(latitude) about the sense axis")
+    p.add_argument("--loop", action="append", metavar="NAME=VALUE",
+                   help="loop setting instead of the one designed for the resonator "
+                        "(f_nominal, q_nominal, plant_gain, amplitude, pll_bandwidth, ...)")
     p.add_argument("--seed", type=int, default=1, help="noise seed")
     p.add_argument("--out", help="output folder")
 
@@ -80,25 +112,33 @@ def _cmd_selfcal(args: argparse.Namespace) -> int:
     from .sequence import self_calibrate
 
     try:
-        res, cfg = _resonator(args), _config(args)
+        res = _resonator(args)
+        cfg = _config(args, res)
         result = self_calibrate(res, cfg)
     except (ResonatorError, LoopsError, PhasorError) as exc:
         raise ParameterError(str(exc)) from None
+    except CalibrationRefusedError as exc:
+        _write_refusal(args, exc)
+        raise
     out = Path(args.out or "runs/selfcal")
     out.mkdir(parents=True, exist_ok=True)
     summary = {"resonator": res.as_dict(), "config": cfg.as_dict(), **result.summary()}
     s = result.summary()
-    print(f"self-calibration ({len(cfg.modes)} modes, {cfg.record:g} s records, "
+    print(f"self-calibration ({len(cfg.modes)} modes, {result.record:g} s records"
+          f"{' (chosen for the targets)' if cfg.auto_record else ''}, "
           f"{cfg.sideband_count} sidebands, {cfg.engine}): {s['wall_time_s']:.1f} s wall")
     print(f"  bias          {s['bias_rad_s']:+.4e} rad/s  (1 sigma {s['sigma_bias_rad_s']:.1e})")
     print(f"  scale factor  {s['scale_factor_V_per_rad_s']:.6f} V/(rad/s)  (1 sigma "
           f"{s['sigma_scale_factor_V_per_rad_s'] / s['scale_factor_V_per_rad_s'] * 1e6:.1f} ppm)")
+    print(f"  checks: loops locked, misfit {result.misfit_ratio:.2f} x noise, "
+          f"pick-off noise {result.pickoff_noise:.2e} V; step {cfg.step:.3g} s, loops for "
+          f"{cfg.loops.f_nominal:.6g} Hz, amplitude {cfg.loops.amplitude:.3g} V")
     print(f"  dxy {s['dxy']:.4e} 1/s, kxy {s['kxy']:.4e} 1/s^2, background rate "
           f"{s['Omega_z']:+.3e} rad/s (1 sigma {s['sigma_Omega_z']:.1e}), |Py/Px| "
           f"{s['relative_pickoff_gain']:.5f}, phase {s['relative_pickoff_phase_rad']:+.2e} rad")
     if args.compare_ratetable:
         ff = FeedForward(result.feedthrough, result.rho, result.feedthrough * 0)
-        table = rate_table(replace(res, noise=0.0), ff, cfg)
+        table = rate_table(res.without_noise(), ff, cfg)
         d_bias = result.bias - table.bias
         d_sf = (result.scale_factor / table.scale_factor - 1) * 1e6
         print(f"  rate table (noise-free, same feed-forward): bias {table.bias:+.4e} rad/s, "
@@ -115,6 +155,16 @@ def _cmd_selfcal(args: argparse.Namespace) -> int:
     return 0
 
 
+def _write_refusal(args: argparse.Namespace, exc: CalibrationRefusedError) -> None:
+    """A refused calibration leaves its reasons on disk, and no number."""
+    out = Path(args.out or "runs/selfcal")
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "summary.json").write_text(json.dumps(
+        {"refused": exc.problems, "calibrated": False}, indent=2))
+    for problem in exc.problems[1:]:
+        print(f"gyro-fmu: also: {problem}", file=sys.stderr)
+
+
 def _cmd_ratetable(args: argparse.Namespace) -> int:
     from .ratetable import DEFAULT_RATES, RateTableError, rate_table
     from .sequence import measure_feedforward
@@ -123,7 +173,8 @@ def _cmd_ratetable(args: argparse.Namespace) -> int:
     if len(set(rates)) < 2 or not all(math.isfinite(r) for r in rates):
         raise ParameterError(f"--rates {list(rates)} needs at least two distinct finite rates")
     try:
-        res, cfg = _resonator(args), _config(args)
+        res = _resonator(args)
+        cfg = _config(args, res)
         if args.feedforward_from:
             s = json.loads(Path(args.feedforward_from).read_text())
             rho = s["relative_pickoff_gain"] * np.exp(1j * s["relative_pickoff_phase_rad"])
@@ -146,6 +197,29 @@ def _cmd_ratetable(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_lot(args: argparse.Namespace) -> int:
+    from .lot import LotModel, run_lot, write_lot
+
+    if args.n < 1:
+        raise ParameterError(f"-n {args.n!r} must be at least 1")
+    res = run_lot(args.n, LotModel(seed=args.seed), args.scheduler, args.workers,
+                  progress=not args.quiet)
+    paths = write_lot(res, Path(args.out or "runs/selfcal_lot"), figures=not args.no_figures)
+    s = res.summary()
+    print(f"self-calibration lot of {s['n']}: {s['n_good']} good "
+          f"({s['fraction_good']:.0%}), {s['n_refused']} refused, {s['n_WRONG']} WRONG, "
+          f"{s['n_failed']} failed; RMS(error/sigma) bias {s['rms_z_bias'] or math.nan:.2f}, "
+          f"SF {s['rms_z_sf'] or math.nan:.2f}; {s['wall_s_per_resonator_median']:.1f} s "
+          f"median per calibration, {s['wall_s']:.0f} s on {s['n_workers']} workers")
+    for reason in s["refusal_reasons"] + s["failures"]:
+        print(f"  refused/failed: {reason[:160]}")
+    for p in paths:
+        print(f"  {p}")
+    if res.interrupted:
+        raise KeyboardInterrupt
+    return 1 if s["n_WRONG"] else 0
+
+
 def _json(value: object) -> object:
     if isinstance(value, complex):
         return [value.real, value.imag]
@@ -159,7 +233,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     sc = sub.add_parser("selfcal", help="self-calibrate bias and scale factor without "
                         "rotation (US 9,482,553), carrier-level")
     _common(sc)
-    sc.add_argument("--record", type=float, help="s per mode (multiple of 5; default 10)")
+    sc.add_argument("--record", type=float,
+                    help="s per mode, whole periods of the spacing (default: 10 s, longer "
+                         "when the 1-sigmas need it, up to --max-record)")
+    sc.add_argument("--max-record", dest="max_record", type=float,
+                    help="s, longest record chosen for the targets (default 120)")
+    sc.add_argument("--target-bias", dest="target_bias", type=float,
+                    help="rad/s, bias 1-sigma to reach (default earth rate / 3, 2.4e-5)")
+    sc.add_argument("--target-sf-ppm", dest="target_sf_ppm", type=float,
+                    help="ppm, scale-factor 1-sigma to reach (default 30)")
     sc.add_argument("--settle", type=float, help="s before each record (default 8)")
     sc.add_argument("--sidebands", dest="sideband_count", type=int,
                     help="number of sideband tones (default 7)")
@@ -175,6 +257,18 @@ def register(sub: argparse._SubParsersAction) -> None:
                          "(bit-identical to inprocess, ~1 min instead of ~2 s)")
     sc.add_argument("--no-figures", dest="no_figures", action="store_true")
     sc.set_defaults(func=_cmd_selfcal)
+
+    lot = sub.add_parser("selfcal-lot", help="self-calibrate a lot of resonators drawn "
+                         "from a tolerance model (3-15 kHz, Q 5e3-2e5), each checked "
+                         "against its rate table, on Dask")
+    lot.add_argument("-n", type=int, default=100, help="resonators (default 100)")
+    lot.add_argument("--seed", type=int, default=2026, help="seed of the draw")
+    lot.add_argument("--workers", type=int, help="local Dask workers (default: all cores)")
+    lot.add_argument("--scheduler", help="address of an existing Dask scheduler")
+    lot.add_argument("--out", help="output folder (default runs/selfcal_lot)")
+    lot.add_argument("--quiet", action="store_true", help="no progress line")
+    lot.add_argument("--no-figures", dest="no_figures", action="store_true")
+    lot.set_defaults(func=_cmd_lot)
 
     rt = sub.add_parser("ratetable", help="conventional calibration on a simulated rate "
                         "table (the ground truth of selfcal)")

@@ -160,6 +160,10 @@ class ResonatorParameters:
             dxy=self.dxy * damping_factor,
         )
 
+    def without_noise(self) -> ResonatorParameters:
+        """The same instrument with every noise off: what a rate table's truth sees."""
+        return replace(self, noise=0.0, m_modal=0.0, drive_noise=0.0)
+
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
 

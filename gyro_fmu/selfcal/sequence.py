@@ -5,7 +5,10 @@
 2. x oscillator, y rebalanced, sidebands on: settle, record;
 3. modes reversed (y oscillator, x rebalanced): settle, record;
 4. demodulate at the sideband frequencies, fit eq. 19 (estimator.py), compute cross
-   damping, cross stiffness, the background rate, bias and scale factor.
+   damping, cross stiffness, the background rate, bias and scale factor;
+5. when the 1-sigmas miss the targets, record again for as long as the pilot's
+   uncertainty says they need (choose_record), then check everything (alarms.py):
+   a calibration that cannot be trusted raises CalibrationRefusedError, never a number.
 
 The loops use the measured E in every closed-loop step, as the instrument would.
 """
@@ -19,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import alarms
 from .estimator import (
     ModeData,
     SidebandFit,
@@ -29,7 +33,7 @@ from .estimator import (
 from .inprocess import DEFAULT_STEP, CarrierRecord, CarrierSimulation
 from .loops import LoopSettings
 from .phasors import phasors, phasors_and_variances
-from .resonator import ResonatorParameters
+from .resonator import EARTH_RATE, ResonatorParameters
 
 
 @dataclass(frozen=True)
@@ -40,6 +44,10 @@ class SelfCalConfig:
     ff_duration: float = 2.0  #: s, loops-off record (whole periods of 10 Hz)
     settle: float = 8.0  #: s, before each sideband record (5 ring-down times)
     record: float = 10.0  #: s, each sideband record (whole periods of the spacing)
+    auto_record: bool = True  #: lengthen the records until the 1-sigmas meet the targets
+    max_record: float = 120.0  #: s, longest record auto_record may choose
+    target_bias: float = EARTH_RATE / 3  #: rad/s, bias 1-sigma to reach
+    target_sf_ppm: float = 30.0  #: ppm, scale-factor 1-sigma to reach
     sideband_index: float = 0.04  #: modulation index per tone
     sideband_spacing: float = 0.2  #: Hz (two Hann bins of a 10 s record)
     sideband_count: int = 7  #: tones at 1..count times the spacing (0.2..1.4 Hz)
@@ -184,9 +192,14 @@ class SelfCalResult:
     wall_time: float
     fit: SidebandFit
     modes: list[ModeData]
+    record: float = math.nan  #: s, length of each sideband record used
+    misfit_ratio: float = math.nan  #: rms residual / what the pick-off noise leaves
+    pickoff_noise: float = math.nan  #: V per sample, estimated from the records
 
     def summary(self) -> dict:
         return {
+            "record_s": self.record, "misfit_ratio": self.misfit_ratio,
+            "pickoff_noise_estimate_V": self.pickoff_noise,
             "bias_rad_s": self.bias, "sigma_bias_rad_s": self.sigma_bias,
             "scale_factor_V_per_rad_s": self.scale_factor,
             "sigma_scale_factor_V_per_rad_s": self.sigma_scale_factor,
@@ -202,12 +215,70 @@ class SelfCalResult:
 
 
 def self_calibrate(res: ResonatorParameters, cfg: SelfCalConfig | None = None) -> SelfCalResult:
-    """The whole sequence, in process at carrier level."""
+    """The whole sequence at carrier level, checked: raises alarms.CalibrationRefusedError
+    (every problem named, the untrusted result attached) rather than return a
+    calibration whose loops did not lock, whose model does not fit or whose
+    uncertainty misses the targets."""
     cfg = cfg or SelfCalConfig()
     start = time.perf_counter()
     ff = measure_feedforward(res, cfg)
-    data = [record_mode(res, cfg, m, ff)[0] for m in cfg.modes]
-    return estimate(data, ff, cfg, start)
+    result, problems = _calibrate(res, cfg, ff, start)
+    if not problems and cfg.auto_record:
+        record = choose_record(result, cfg)
+        if record > cfg.record:
+            result, problems = _calibrate(res, replace(cfg, record=record), ff, start)
+    if not problems:
+        problems = alarms.uncertainty_problems(
+            result.sigma_bias, abs(result.sigma_scale_factor / result.scale_factor) * 1e6,
+            cfg.target_bias, cfg.target_sf_ppm, result.record)
+    if problems:
+        raise alarms.CalibrationRefusedError(problems, result)
+    return result
+
+
+def choose_record(result: SelfCalResult, cfg: SelfCalConfig) -> float:
+    """Record length (s) that brings the pilot's 1-sigmas to the targets: they fall as
+    1 / sqrt(record), so record * (sigma / target)^2 with 10 % margin, in whole
+    periods of the sideband spacing, at most cfg.max_record."""
+    need = max((result.sigma_bias / cfg.target_bias) ** 2,
+               (abs(result.sigma_scale_factor / result.scale_factor) * 1e6
+                / cfg.target_sf_ppm) ** 2)
+    if not need > 1.0:
+        return cfg.record
+    period = 1.0 / cfg.sideband_spacing
+    longer = math.ceil(cfg.record * need * 1.1 / period) * period
+    return min(longer, max(cfg.record, math.floor(cfg.max_record / period) * period))
+
+
+def _calibrate(res: ResonatorParameters, cfg: SelfCalConfig, ff: FeedForward,
+               start: float) -> tuple[SelfCalResult | None, list[str]]:
+    """Record every mode, check its loops, fit; (result or None, problems)."""
+    data, problems, noise = [], [], []
+    for m in cfg.modes:
+        md, rec = record_mode(res, cfg, m, ff)
+        cols = CarrierRecord(rec.data[:-1], cfg.step)
+        secondary = float(np.abs(md.PO[md.omega.size // 2, 2 - m])) if m in (1, 2) else 0.0
+        problems += alarms.lock_problems(m, cols["phase_error"], cols["amplitude"],
+                                         cols["gain"], secondary / max(md.amplitude, 1e-300),
+                                         cfg.loops.amplitude, cfg.loops.drive_limit)
+        f_osc = md.omega_osc / (2 * math.pi)
+        noise += [alarms.pickoff_noise(cols[n], cfg.step, f_osc) ** 2 for n in ("Vpx", "Vpy")]
+        data.append(md)
+    if problems:  # no fit of records whose loops did not hold
+        return None, problems
+    try:
+        with np.errstate(all="raise"):
+            result = estimate(data, ff, cfg, start)
+    except (np.linalg.LinAlgError, ValueError, ZeroDivisionError, FloatingPointError) as exc:
+        return None, [f"the sideband fit failed numerically ({type(exc).__name__}: {exc}): "
+                      "the records do not determine the model; check the loops lock "
+                      "(--loop) and raise the sideband index (--index)"]
+    result.record = cfg.record
+    result.pickoff_noise = math.sqrt(float(np.mean(noise)))
+    n = round(cfg.record / cfg.step)
+    result.misfit_ratio, problems = alarms.misfit_problems(
+        result.rms_residual, result.pickoff_noise, n, cfg.loops.amplitude)
+    return result, problems
 
 
 def estimate(data: list[ModeData], ff: FeedForward, cfg: SelfCalConfig,

@@ -1,0 +1,125 @@
+"""Alarms that stop a wrong calibration: lock, misfit, conditioning, uncertainty.
+
+Each check returns a list of problems (empty when fine), each naming what was
+measured, the limit, and what to change, like fmpy's validation. `self_calibrate`
+raises CalibrationRefusedError with all of them instead of returning a number.
+
+- Lock (per mode record): the PLL phase error stays small (an unlocked PLL slips
+  through +-pi), the demodulated primary amplitude holds its setpoint, the drive is
+  not pinned at its limit, the rebalance nulls the secondary pick-off.
+- Misfit: the rms residual of the eq. 19 fit against the residual white pick-off
+  noise alone would leave. A Hann-weighted phasor over N samples of noise of
+  variance s^2 has variance 6 s^2 / N, 3 s^2 / N per real component; s is estimated
+  from the pick-off record's spectrum above the carrier (median of a Hann
+  periodogram, robust to lines). A model that fits leaves a ratio near 1; an imperfection the
+  model lacks (cubic stiffness: 0.01 Hz of amplitude-frequency shift gives ~120)
+  or unsettled loops leave more.
+- Conditioning and uncertainty: the fit's 1-sigmas must be finite and below the
+  targets (the record length was chosen for them; see sequence.choose_record).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import GyroFmuError
+
+#: rad: largest PLL phase error allowed during a record (locked: about 5e-4).
+PLL_PHASE_LIMIT = 0.1
+#: relative: largest departure of the mean primary amplitude from its setpoint.
+AMPLITUDE_TOLERANCE = 0.1
+#: fraction of samples the drive may spend at its limit.
+SATURATION_LIMIT = 0.01
+#: secondary/primary carrier amplitude the rebalance must reach (locked: ~1e-10).
+REBALANCE_LIMIT = 1e-3
+#: misfit ratio above which the model is refused (chi-square with ~200 degrees of
+#: freedom: a ratio of 1.2 is already 3 sigma of the ratio's own spread).
+MISFIT_LIMIT = 2.0
+#: relative: model-error floor of a noise-free fit (measured: 1.5e-8 of the amplitude).
+MODEL_FLOOR = 1e-7
+
+
+class CalibrationRefusedError(GyroFmuError):
+    """The calibration cannot be trusted: `problems` names each cause and its remedy;
+    `result` is the untrusted SelfCalResult when one was computed (for studies)."""
+
+    def __init__(self, problems: list[str], result: object | None = None) -> None:
+        self.problems = list(problems)
+        self.result = result
+        super().__init__("self-calibration refused: " + "; ".join(self.problems))
+
+
+def lock_problems(mode: int, phase_error: np.ndarray, amplitude: np.ndarray,
+                  gain: np.ndarray, secondary: float, setpoint: float,
+                  drive_limit: float) -> list[str]:
+    """Problems of one closed-loop record (empty when the loops held)."""
+    out = []
+    worst = float(np.max(np.abs(phase_error))) if len(phase_error) else math.nan
+    if not worst <= PLL_PHASE_LIMIT:
+        out.append(f"mode {mode}: the PLL did not lock (phase error up to {worst:.2g} rad, "
+                   f"limit {PLL_PHASE_LIMIT}): set f_nominal to the resonator's frequency "
+                   "(--loop f_nominal=HZ) or widen --loop pll_bandwidth=HZ")
+    mean_amp = float(np.mean(amplitude))
+    if not abs(mean_amp / setpoint - 1.0) <= AMPLITUDE_TOLERANCE:
+        out.append(f"mode {mode}: the amplitude control did not hold {setpoint:.3g} V (mean "
+                   f"{mean_amp:.3g} V): check plant_gain and q_nominal (--loop), or lower "
+                   "--loop amplitude=V")
+    pinned = float(np.mean(gain >= drive_limit))
+    if pinned > SATURATION_LIMIT:
+        out.append(f"mode {mode}: the drive sat at its limit {drive_limit:g} V for "
+                   f"{pinned:.0%} of the record: lower --loop amplitude=V or raise "
+                   "--loop drive_limit=V")
+    if not secondary <= REBALANCE_LIMIT:
+        out.append(f"mode {mode}: the force rebalance left the secondary pick-off at "
+                   f"{secondary:.2g} of the primary (limit {REBALANCE_LIMIT:g}): check "
+                   "--loop plant_gain and rebalance_bandwidth")
+    return out
+
+
+def pickoff_noise(signal: np.ndarray, h: float, f_carrier: float) -> float:
+    """White-noise std per sample of a pick-off record, from its periodogram between
+    1.6 times the carrier and the Nyquist frequency (median / ln 2: robust to stray
+    lines). Below the carrier the rebalanced pick-off also carries the drive noise the
+    loops feed back (measured: 1.6 times the white level at 0.2-0.7 f)."""
+    n = len(signal)
+    window = np.hanning(n)  # the carrier's leakage falls as 1/k^3, not 1/k
+    spec = np.abs(np.fft.rfft((signal - np.mean(signal)) * window)) ** 2
+    f = np.fft.rfftfreq(n, h)
+    band = spec[(f > 1.6 * f_carrier) & (f < 0.95 / (2 * h))]
+    if band.size < 16:
+        return math.nan
+    return math.sqrt(float(np.median(band)) / (float(window @ window) * math.log(2.0)))
+
+
+def misfit_problems(rms_residual: float, noise: float, n_samples: int,
+                    amplitude: float) -> tuple[float, list[str]]:
+    """(misfit ratio, problems): the fit's rms residual against what noise leaves."""
+    expected = math.hypot(math.sqrt(3.0 * noise**2 / n_samples), MODEL_FLOOR * amplitude)
+    ratio = rms_residual / expected
+    if not ratio <= MISFIT_LIMIT:
+        return ratio, [
+            f"the eq. 19 model does not fit the sidebands: rms residual {rms_residual:.2g} V "
+            f"is {ratio:.3g} times what the pick-off noise leaves ({expected:.2g} V, limit "
+            f"{MISFIT_LIMIT:g}x): an imperfection the model lacks (cubic stiffness: lower "
+            "the drive --loop amplitude=V) or loops still settling (longer --settle)"]
+    return ratio, []
+
+
+def uncertainty_problems(sigma_bias: float, sigma_sf_ppm: float, target_bias: float,
+                         target_sf_ppm: float, record: float) -> list[str]:
+    """The 1-sigmas must be finite (a conditioned fit) and within the targets."""
+    if not (math.isfinite(sigma_bias) and math.isfinite(sigma_sf_ppm)):
+        return ["the sideband fit is ill-conditioned (non-finite uncertainty): raise the "
+                "sideband index (--index) or check the forcer gains"]
+    out = []
+    if sigma_bias > target_bias:
+        out.append(f"bias 1-sigma {sigma_bias:.2g} rad/s is above the target "
+                   f"{target_bias:.2g} after {record:g} s records: allow longer records "
+                   "(--max-record S), lower the noise, or relax --target-bias")
+    if sigma_sf_ppm > target_sf_ppm:
+        out.append(f"scale-factor 1-sigma {sigma_sf_ppm:.3g} ppm is above the target "
+                   f"{target_sf_ppm:g} ppm after {record:g} s records: allow longer records "
+                   "(--max-record S), lower the noise, or relax --target-sf-ppm")
+    return out
