@@ -11,6 +11,8 @@ from gyro_fmu.system.scenario import default_initial_guess
 _GUESS = default_initial_guess(PRESETS[DEFAULT_PRESET])
 _UNITS = {**PARAMETER_UNITS, "Omega_z": "rad/s"}
 _ESTIMATED = ("Omega_z", "kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m")
+#: Status-1 warnings logged per instance (a noisy run may enter and leave status 1 often).
+_MAX_WARNINGS = 3
 _HAT = {"Omega_z": "Omega_hat"}  # the patent's Omega_z' is published as Omega_hat
 #: The outputs in the order of GyroStateObserver.output_row().
 _OUTPUTS = ("x_hat", "vx_hat", "y_hat", "vy_hat", *(_HAT.get(n, f"{n}_hat") for n in _ESTIMATED),
@@ -85,6 +87,7 @@ class GyroObserver(GyroSlave):
         initial = GyroParameters(**{n: getattr(self, f"{n}_0") for n in PARAMETER_UNITS})
         tuning = dataclass_from_parameters(ObserverTuning, self)
         self.observer = GyroStateObserver(initial, self.Omega_z_0, int(self.measured_pair), tuning)
+        self._warnings_logged = 0
         self._publish()
 
     def advance(self, t: float, h: float) -> None:
@@ -100,8 +103,12 @@ class GyroObserver(GyroSlave):
             self.status = 2.0
             raise
         if self.observer.status != self.status:
-            if self.observer.status == 1:
-                self.log(f"{self.modelName}: {self.observer.warning}", Fmi2Status.warning)
+            if self.observer.status == 1 and self._warnings_logged < _MAX_WARNINGS:
+                self._warnings_logged += 1
+                more = (" (further warnings not logged: the status output carries them)"
+                        if self._warnings_logged == _MAX_WARNINGS else "")
+                self.log(f"{self.modelName}: {self.observer.warning}{more}",
+                         Fmi2Status.warning)
             self.status = float(self.observer.status)
         self._publish()
 

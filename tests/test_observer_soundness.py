@@ -147,3 +147,22 @@ def test_gyro_fmu_run_stops_with_exit_2_naming_the_lost_observer(models_dir, tmp
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert "observer" in err and "refused the step" in err and "observer lost at t=" in err, err
+
+
+def test_the_fmu_publishes_a_warning_status_and_logs_it(models_dir):
+    """Noise 10x larger than told: status 1 and the chi-square warning in the log."""
+    sc = scenario("default")
+    obs = Instance(models_dir / "GyroObserver.fmu", "warned-observer",
+                   {**{f"{k}_0": v for k, v in sc.initial_guess.items()},
+                    "sigma_z1": 3e-14, "sigma_z2": 3e-14, "q_Omega": 0.0, "omega_order": 1})
+    plant = GyroPlantModel(sc.params, MeasurementNoise(x=3e-13, y=3e-13), 1)
+    for k in range(600):
+        ux = sc.the_drive.ux(k * 5e-6)
+        z = plant.measured()
+        obs.set({"ux": ux, "x_meas": z[0], "y_meas": z[2]})
+        assert obs.step(5e-6) == 0
+        plant.step(ux, 0.0, 1.0, 5e-6)
+    assert obs.get(["status"]) == [1.0]
+    assert "chi-square" in obs.messages() and "noise larger than told" in obs.messages()
+    assert obs.get(["sigma_Omega_z"])[0] > 0.0
+    obs.close()

@@ -164,7 +164,8 @@ def lost_message(mon, observer, h: float) -> str:
               "a smaller communication step",
               "measurement noise larger than the observer was told (sigma_z1, sigma_z2, "
               "noise_rel)"]
-    return (f"observer lost at t={observer.t:.6g} s: {_cause(mon, lim)}. Likely causes and "
+    return (f"observer lost at t={observer.t:.6g} s (the step from {observer.t - h:.6g} s): "
+            f"{_cause(mon, lim)}. Likely causes and "
             f"remedies: {'; '.join(hints)}. Its estimates are meaningless from here: "
             f"restore an earlier state or start anew")
 
