@@ -42,15 +42,23 @@ N_OUTPUTS = 4 + 8 + 8
 
 
 @njit(cache=True)
-def _ekf_step(model, noise, lim, x, P, L, peak, nu2, mon, F, Q, ux, uy, z1, z2, h
-              ):  # pragma: no cover
+def _ekf_step(model, noise, lim, x, P, L, peak, nu2, mon, F, Q, ux, uy, z1, z2, h, pv, pk0,
+              pk1):  # pragma: no cover
     """step() in one compiled call: correct at t, predict to t + h, monitor (its verdict).
+
+    pv > 0: the auto prior starts here, after the correction (as predict() starts it):
+    variance pv on [x, vx, y, vy], running peaks at least pk0, pk1.
 
     model and noise arrive as plain tuples (numba types those 0.6 us faster per call
     than NamedTuples) and are given their field names here.
     """
     m = ObserverModel(*model)
     kern.correct(m, NoiseModel(*noise), x, P, peak, nu2, mon, z1, z2, h)
+    if pv > 0.0:
+        peak[0] = max(peak[0], pk0)
+        peak[1] = max(peak[1], pk1)
+        for i in range(4):
+            P[i, i] += pv
     kern.predict(m, x, P, F, Q, ux, uy, h)
     return check(m, MonitorLimits(*lim), x, P, L, mon)
 
@@ -226,18 +234,32 @@ class GyroStateObserver:
             self._check_finite(ux=ux, uy=uy, z1=z1, z2=z2)
         if self.lost is not None:
             raise ObserverDivergedError(self.lost)
-        if self._auto_prior:  # the first steps: update, predict (each may start the prior)
-            self.update(z1, z2, h)
-            self.predict(ux, uy, h)
-            return
+        pv = pk0 = pk1 = 0.0  # a prior started by the drive, applied before the predict
+        if self._auto_prior:  # as update() then predict() start it
+            self._start_prior(0.0, 0.0, z1, z2)
+            if self._auto_prior:
+                size = self._prior_size(ux, uy, 0.0, 0.0)
+                if size > 0.0:
+                    g = self._model.hgain
+                    q = PRIOR_FRACTION * size
+                    pv, pk0, pk1 = q * q, size * g[0], size * g[1]
+                    self._auto_prior = False
         if h != self._h_cached:
             self._set_h(h)
         code = _ekf_step(self._model_t, self._noise_t, self._lim, self.xhat, self.P, self._L,
                          self.peak, self.nu2, self.mon, self._F, self._Q, float(ux), float(uy),
-                         float(z1), float(z2), float(h))
+                         float(z1), float(z2), float(h), pv, pk0, pk1)
         self.t += h
         if code != self.status:
             self._verdict(code, h)
+
+    def _prior_size(self, ux: float, uy: float, z1: float, z2: float) -> float:
+        """The signal size (m) that starts the auto prior (_start_prior); 0: at rest."""
+        th, tun = self.theta0, self.tuning
+        g = self._model.hgain
+        zs = [abs(z) / gj if abs(z) > 3.0 * sz else 0.0
+              for z, gj, sz in ((z1, g[0], tun.sigma_z1), (z2, g[1], tun.sigma_z2))]
+        return max(*zs, th[6] * abs(ux) / th[0], th[6] * abs(uy) / th[1])
 
     def _start_prior(self, ux: float, uy: float, z1: float, z2: float) -> None:
         """Scale-invariant prior of [x, vx, y, vy]: at rest (variance 0) until the first
@@ -245,14 +267,10 @@ class GyroStateObserver:
         mode), then 1-sigma = PRIOR_FRACTION of the size of that signal, in m (the larger
         of the measured displacement and the static deflection b |u| / k of the guess),
         and that times the guessed natural frequency for the velocities."""
-        th, tun = self.theta0, self.tuning
-        g = self._model.hgain
-        zs = [abs(z) / gj if abs(z) > 3.0 * sz else 0.0
-              for z, gj, sz in ((z1, g[0], tun.sigma_z1), (z2, g[1], tun.sigma_z2))]
-        size = max(*zs, th[6] * abs(ux) / th[0], th[6] * abs(uy) / th[1])
+        size = self._prior_size(ux, uy, z1, z2)
         if not size > 0.0:
             return
-        np.maximum(self.peak, size * g, out=self.peak)
+        np.maximum(self.peak, size * self._model.hgain, out=self.peak)
         size *= PRIOR_FRACTION
         for i in range(4):  # filter units: m for all four (velocities scaled by 1/w)
             self.P[i, i] += size * size
