@@ -35,6 +35,7 @@ default rate model (integrated random walk, q_Omega 1e9); a consistent filter gi
 from __future__ import annotations
 
 import argparse
+import re
 import time
 from collections import Counter
 
@@ -43,9 +44,12 @@ import numpy as np
 from gyro_fmu.estimation.observer import GyroStateObserver, ObserverTuning
 
 try:
-    from gyro_fmu.estimation.observer import ObserverDivergedError
+    from gyro_fmu.estimation.observer import ObserverDivergedError, ObserverStepError
 except ImportError:  # the observer before issue 15 (to measure "before"): no monitor
     class ObserverDivergedError(Exception):
+        pass
+
+    class ObserverStepError(Exception):
         pass
 from gyro_fmu.model.parameters import PARAMETER_NAMES, GyroParameters
 from gyro_fmu.model.plant import GyroPlantModel, MeasurementNoise
@@ -94,8 +98,11 @@ def one_run(h: float, om0: float, err: float, ms: float, tuning: str, noise: flo
             times.append(time.thread_time() - t0)
             plant.step(ux, 0.0, 1.0, h)
     except ObserverDivergedError as exc:
-        cause = str(exc).split(": ", 1)[1].split(" (")[0].split(":")[0]
+        cause = str(exc).split("): ", 1)[1].split(" (")[0].split(":")[0]
+        cause = re.sub(r"-?[0-9][0-9.e+-]*", "#", cause)  # one line per kind of cause
         return "refused", cause, times
+    except ObserverStepError:
+        return "refused", "communication step too coarse", times
     est, sig = obs.estimates(), obs.sigmas()
     if not all(np.isfinite(list(est.values()))):
         return "non-finite", "", times  # in the FMU: refused for non-finite outputs
@@ -152,6 +159,8 @@ def main() -> None:
                     "gyro-fmu run; fmu-default: the FMU's defaults")
     ap.add_argument("--noise", type=float, default=0.0, help="noise std / signal peak")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--steps", type=float, nargs="*", default=list(STEPS_US),
+                    help="communication steps, us")
     ap.add_argument("--budget", type=float, default=30.0,
                     help="wall seconds per run before it counts as hung (silent, like wrong-OK)")
     ap.add_argument("--consistency", type=int, default=0, metavar="SEEDS",
@@ -170,7 +179,7 @@ def main() -> None:
     causes: Counter = Counter()
     bad: list[str] = []
     all_times: list[float] = []
-    for h_us in STEPS_US:
+    for h_us in args.steps:
         row: Counter = Counter()
         times: list[float] = []
         for om0 in RATE_GUESSES:
@@ -186,7 +195,7 @@ def main() -> None:
                                f"{outcome} ({detail})")
         total += row
         all_times += times
-        ts = np.array(times) * 1e6
+        ts = np.array(times or [0.0]) * 1e6
         print(f"{h_us:7g} {row['converged']:9d} {row['uncertain']:9d} {row['refused']:7d} "
               f"{row['warned']:6d} "
               f"{row['wrong-OK'] + row['hung']:8d} {row['non-finite']:10d} {ts.max():15.1f} "

@@ -15,7 +15,12 @@ import pytest
 from fmu_harness import Instance
 
 from gyro_fmu.errors import GyroFmuError
-from gyro_fmu.estimation.observer import GyroStateObserver, ObserverDivergedError, ObserverTuning
+from gyro_fmu.estimation.observer import (
+    GyroStateObserver,
+    ObserverDivergedError,
+    ObserverStepError,
+    ObserverTuning,
+)
 from gyro_fmu.estimation.observer_monitor import cholesky_ok
 from gyro_fmu.model.drive import TwoToneDrive
 from gyro_fmu.model.parameters import GyroParameters, preset
@@ -166,3 +171,16 @@ def test_the_fmu_publishes_a_warning_status_and_logs_it(models_dir):
     assert "chi-square" in obs.messages() and "noise larger than told" in obs.messages()
     assert obs.get(["sigma_Omega_z"])[0] > 0.0
     obs.close()
+
+
+def test_a_step_too_coarse_for_the_resonance_is_refused_by_name_and_changes_nothing():
+    """200 us samples the 3.7 kHz resonance at omega h = 4.6: aliased, refused; the
+    observer goes on with a smaller step (the FMU: fmi2Discard, recoverable)."""
+    obs = GyroStateObserver(preset())
+    before = obs.get_state()
+    with pytest.raises(ObserverStepError, match=r"too coarse.*use a step <= 0\.000108 s"):
+        obs.step(1e-8, 0.0, 0.0, 0.0, 200e-6)
+    assert isinstance(ObserverStepError("x"), GyroFmuError)
+    assert obs.get_state() == before
+    obs.step(1e-8, 0.0, 0.0, 0.0, 100e-6)
+    assert obs.status == 0

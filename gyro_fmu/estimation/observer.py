@@ -25,14 +25,16 @@ from .observer_kernels import I_OM, I_PAR, KMAX, N_MON, N_PAR, NoiseModel, Obser
 from .observer_monitor import (
     MonitorLimits,
     ObserverDivergedError,
+    ObserverStepError,
     check,
     limits,
     lost_message,
+    step_too_coarse,
     warning_message,
 )
 from .observer_tuning import ObserverTuning
 
-__all__ = ["GyroStateObserver", "ObserverDivergedError", "ObserverTuning"]
+__all__ = ["GyroStateObserver", "ObserverDivergedError", "ObserverStepError", "ObserverTuning"]
 
 _STATE_VERSION = 2
 #: Auto prior of [x, vx, y, vy]: this fraction of the first signal's size (m).
@@ -189,6 +191,7 @@ class GyroStateObserver:
 
     def _set_h(self, h: float) -> None:
         """Omega-model transition and process noise of a step h (cached: h rarely changes)."""
+        step_too_coarse(h, max(self.wx, self.wy))
         tun = self.tuning
         n, r = self.n, self.order
         F = self._F
@@ -234,6 +237,8 @@ class GyroStateObserver:
             self._check_finite(ux=ux, uy=uy, z1=z1, z2=z2)
         if self.lost is not None:
             raise ObserverDivergedError(self.lost)
+        if h != self._h_cached:  # first: a refused step changes nothing
+            self._set_h(h)
         pv = pk0 = pk1 = 0.0  # a prior started by the drive, applied before the predict
         if self._auto_prior:  # as update() then predict() start it
             self._start_prior(0.0, 0.0, z1, z2)
@@ -244,8 +249,6 @@ class GyroStateObserver:
                     q = PRIOR_FRACTION * size
                     pv, pk0, pk1 = q * q, size * g[0], size * g[1]
                     self._auto_prior = False
-        if h != self._h_cached:
-            self._set_h(h)
         code = _ekf_step(self._model_t, self._noise_t, self._lim, self.xhat, self.P, self._L,
                          self.peak, self.nu2, self.mon, self._F, self._Q, float(ux), float(uy),
                          float(z1), float(z2), float(h), pv, pk0, pk1)
@@ -307,10 +310,10 @@ class GyroStateObserver:
         self._check_finite(ux=ux, uy=uy)
         if self.lost is not None:
             raise ObserverDivergedError(self.lost)
-        if self._auto_prior:
-            self._start_prior(ux, uy, 0.0, 0.0)
         if h != self._h_cached:
             self._set_h(h)
+        if self._auto_prior:
+            self._start_prior(ux, uy, 0.0, 0.0)
         kern.predict(self._model, self.xhat, self.P, self._F, self._Q, float(ux), float(uy),
                      float(h))
         self.t += h
