@@ -223,10 +223,13 @@ def self_calibrate(res: ResonatorParameters, cfg: SelfCalConfig | None = None) -
     start = time.perf_counter()
     ff = measure_feedforward(res, cfg)
     result, problems = _calibrate(res, cfg, ff, start)
-    if not problems and cfg.auto_record:
-        record = choose_record(result, cfg)
-        if record > cfg.record:
-            result, problems = _calibrate(res, replace(cfg, record=record), ff, start)
+    used = cfg
+    for _ in range(3 if cfg.auto_record else 0):  # sigma falls about as 1/sqrt(record)
+        record = choose_record(result, used) if not problems else used.record
+        if record <= used.record:
+            break
+        used = replace(used, record=record)
+        result, problems = _calibrate(res, used, ff, start)
     if not problems:
         problems = alarms.uncertainty_problems(
             result.sigma_bias, abs(result.sigma_scale_factor / result.scale_factor) * 1e6,
@@ -239,15 +242,26 @@ def self_calibrate(res: ResonatorParameters, cfg: SelfCalConfig | None = None) -
 def choose_record(result: SelfCalResult, cfg: SelfCalConfig) -> float:
     """Record length (s) that brings the pilot's 1-sigmas to the targets: they fall as
     1 / sqrt(record), so record * (sigma / target)^2 with 10 % margin, in whole
-    periods of the sideband spacing, at most cfg.max_record."""
+    record_units, at most cfg.max_record. self_calibrate asks again after each longer
+    record (at most 3 times): the fall is not exactly 1 / sqrt."""
     need = max((result.sigma_bias / cfg.target_bias) ** 2,
                (abs(result.sigma_scale_factor / result.scale_factor) * 1e6
                 / cfg.target_sf_ppm) ** 2)
     if not need > 1.0:
         return cfg.record
-    period = 1.0 / cfg.sideband_spacing
-    longer = math.ceil(cfg.record * need * 1.1 / period) * period
-    return min(longer, max(cfg.record, math.floor(cfg.max_record / period) * period))
+    unit = record_unit(cfg.sideband_spacing)
+    longer = math.ceil(cfg.record * need * 1.1 / unit) * unit
+    return min(longer, max(cfg.record, math.floor(cfg.max_record / unit) * unit))
+
+
+def record_unit(spacing: float) -> float:
+    """Shortest record (s) holding whole periods of the spacing and whole seconds (the
+    step grid, design.step_for, makes every whole second a whole number of steps):
+    5 s for 0.2 Hz, 10 s for 0.9 Hz; 1/spacing for a spacing off the 0.1 Hz grid."""
+    tenths = round(spacing * 10)
+    if tenths < 1 or abs(spacing * 10 - tenths) > 1e-9:
+        return 1.0 / spacing
+    return 10.0 / math.gcd(tenths, 10)
 
 
 def _calibrate(res: ResonatorParameters, cfg: SelfCalConfig, ff: FeedForward,
