@@ -29,7 +29,8 @@ time of the thread (time.thread_time: a busy machine's preemption is not the obs
 With --consistency SEEDS: instead, RMS of error/sigma per unknown, pooled over samples
 every 1 ms from 100 to 300 ms and over SEEDS seeds, default scenario at noise 1e-4
 (absolute noise stds told), with the scenario's constant-rate model and with the FMU's
-default rate model (integrated random walk, q_Omega 1e9); a consistent filter gives 1.
+default rate model (integrated random walk, q_Omega 1e9), and the FMU's defaults told
+the noise only as noise_rel 1e-4 (relative mode); a consistent filter gives 1.
 """
 
 from __future__ import annotations
@@ -124,7 +125,10 @@ def consistency(seeds: int) -> None:
     from gyro_fmu.system.run import estimate_column
 
     models = {"constant-rate (scenario)": {},
-              "FMU default rate model": {"q_Omega": 1e9, "omega_order": 2}}
+              "FMU default rate model": {"q_Omega": 1e9, "omega_order": 2},
+              "FMU defaults, noise_rel 1e-4": {"q_Omega": 1e9, "omega_order": 2,
+                                               "sigma_z1": 0.0, "sigma_z2": 0.0,
+                                               "noise_rel": 1e-4}}
     names = ("Omega_z", *PARAMETER_NAMES)
     print(f"error/sigma RMS over 100-300 ms (every 1 ms), {seeds} seeds, noise 1e-4, "
           "default scenario")

@@ -7,7 +7,9 @@ on the augmented state of eq. 5, X = [x, x', y, y', Omega_z, kxx, kyy, kxy, dxx,
 from the covariance), then predicts to t + h with ux, uy and Omega_z held, exactly as
 the plant steps (eq. 5; kernels in observer_kernels). Units: k's 1/s^2, d's 1/s, m kg,
 Omega_z rad/s, forces N. Why it is built this way, with measurements:
-docs/observer-design.md.
+docs/observer-design.md; why it stays sound at any step, start and signal scale (Joseph
+update, signal-scaled priors, the divergence monitor of observer_monitor, the status
+and the named errors): docs/observer-soundness.md.
 """
 
 from __future__ import annotations
@@ -37,8 +39,13 @@ from .observer_tuning import ObserverTuning
 __all__ = ["GyroStateObserver", "ObserverDivergedError", "ObserverStepError", "ObserverTuning"]
 
 _STATE_VERSION = 2
-#: Auto prior of [x, vx, y, vy]: this fraction of the first signal's size (m).
+#: Auto prior of [x, vx, y, vy] started by the drive (plant at rest): this fraction of the
+#: static deflection (m); 10 % or more let the velocity-pair filter converge to Omega -5.
 PRIOR_FRACTION = 0.01
+#: ... started by a measurement above its noise (a plant not known at rest): its size.
+#: 1 % there made relative-noise runs overconfident (dyy error/sigma 3.4, 300 ms) since
+#: the innovation floor of R never saw a large early innovation.
+PRIOR_FRACTION_MEASURED = 1.0
 #: Outputs of output_row(): state estimate, UNKNOWNS, their 1-sigmas.
 N_OUTPUTS = 4 + 8 + 8
 
@@ -62,7 +69,7 @@ def _ekf_step(model, noise, lim, x, P, L, peak, nu2, mon, F, Q, ux, uy, z1, z2, 
         for i in range(4):
             P[i, i] += pv
     kern.predict(m, x, P, F, Q, ux, uy, h)
-    return check(m, MonitorLimits(*lim), x, P, L, mon)
+    return check(m, MonitorLimits(*lim), x, P, L, peak, mon)
 
 
 class GyroStateObserver:
@@ -267,14 +274,14 @@ class GyroStateObserver:
     def _start_prior(self, ux: float, uy: float, z1: float, z2: float) -> None:
         """Scale-invariant prior of [x, vx, y, vy]: at rest (variance 0) until the first
         drive or measurement above its noise (3 sigma_z; any nonzero one in relative noise
-        mode), then 1-sigma = PRIOR_FRACTION of the size of that signal, in m (the larger
-        of the measured displacement and the static deflection b |u| / k of the guess),
-        and that times the guessed natural frequency for the velocities."""
+        mode), then 1-sigma = PRIOR_FRACTION of the static deflection b |u| / k of the
+        guess (drive) or PRIOR_FRACTION_MEASURED of the measured displacement, in m, and
+        that times the guessed natural frequency for the velocities."""
         size = self._prior_size(ux, uy, z1, z2)
         if not size > 0.0:
             return
         np.maximum(self.peak, size * self._model.hgain, out=self.peak)
-        size *= PRIOR_FRACTION
+        size *= PRIOR_FRACTION if (ux or uy) else PRIOR_FRACTION_MEASURED
         for i in range(4):  # filter units: m for all four (velocities scaled by 1/w)
             self.P[i, i] += size * size
         self._auto_prior = False
@@ -318,7 +325,7 @@ class GyroStateObserver:
                      float(h))
         self.t += h
         code = check(self._model, MonitorLimits(*self._lim), self.xhat, self.P, self._L,
-                     self.mon)
+                     self.peak, self.mon)
         if code != self.status:
             self._verdict(code, h)
 

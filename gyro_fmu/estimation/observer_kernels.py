@@ -27,9 +27,9 @@ I_OM = 11  #: index of Omega_z in the filter state
 KMAX = 24  #: most Taylor terms (||A h|| <= 0.5 needs 18)
 _STEP_NORM = 0.5  # longer steps are split into equal sub-steps
 #: Monitor accumulators and results (the observer's `mon` array).
-(M_NIS, M_REL, M_REL_Y, M_COUNT, M_STATUS, M_CAUSE, M_WHICH, M_VALUE, M_BLOCK, M_LAST_NIS,
- M_LAST_REL, M_PREV, M_AC, M_SQ, M_LAST_CORR) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 13, 15, 17)
-N_MON = 18  #: M_PREV, M_AC, M_SQ: two entries each (z1, z2)
+(M_NIS, M_COUNT, M_STATUS, M_CAUSE, M_WHICH, M_VALUE, M_BLOCK, M_LAST_NIS, M_LAST_REL, M_PREV,
+ M_AC, M_SQ, M_LAST_CORR) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 11, 13, 15)
+N_MON = 16  #: M_PREV, M_AC, M_SQ: two entries each (z1, z2)
 #: Monitor verdicts (observer_monitor.check): 0 ok, 1 warning, >= 2 lost, by cause.
 C_OK, C_WARN, C_NONFINITE, C_NOT_SPD, C_BOUNDS, C_INNOVATIONS = range(6)
 _J = np.arange(KMAX)
@@ -208,7 +208,7 @@ def correct(model, noise, x, P, peak, nu2, mon, z1, z2, h):  # pragma: no cover
 
     peak (running |z|) and nu2 (innovation EWMA, < 0 before the first) are updated for
     the relative noise mode; h (s) is the step that follows, the EWMA's time base.
-    mon (monitor accumulators, M_*) receives the step's NIS and relative innovation.
+    mon (monitor accumulators, M_*) receives the step's NIS and innovations.
     """
     n = x.shape[0]
     i0 = model.i0
@@ -280,10 +280,6 @@ def correct(model, noise, x, P, peak, nu2, mon, z1, z2, h):  # pragma: no cover
     mon[M_SQ + 1] += nu1 * nu1
     mon[M_PREV] = nu0
     mon[M_PREV + 1] = nu1
-    if peak[0] > 0.0:
-        mon[M_REL] += (nu0 / peak[0]) ** 2
-    if peak[1] > 0.0:
-        mon[M_REL_Y] += (nu1 / peak[1]) ** 2
     mon[M_COUNT] += 1.0
 
 

@@ -11,7 +11,8 @@ The compiled check (observer_kernels.check) runs after every step and judges:
   (sigma_z1, sigma_z2), the mean normalized innovation squared (NIS, chi-square with 2
   dof per correction: mean 2) against its chi-square band: above the 0.9999 quantile a
   warning (status 1), above NIS_LOST lost; in relative mode (R adapts to the innovations,
-  so NIS says little) the RMS innovation relative to each signal's running peak:
+  so NIS says little) the RMS innovation relative to each signal's running peak at the
+  end of the block (early in a run the signal is still building up):
   above REL_LOST lost (the one-step predictions miss by that
   fraction of the signal), a warning above REL_WARN x noise_rel.
 
@@ -47,8 +48,6 @@ from .observer_kernels import (
     M_LAST_NIS,
     M_LAST_REL,
     M_NIS,
-    M_REL,
-    M_REL_Y,
     M_SQ,
     M_STATUS,
     M_VALUE,
@@ -251,7 +250,7 @@ def cholesky_ok(P, L):  # pragma: no cover
 
 
 @njit(cache=True)
-def check(model, lim, x, P, L, mon):  # pragma: no cover
+def check(model, lim, x, P, L, peak, mon):  # pragma: no cover
     """Divergence monitor after a step: 0 ok, 1 warning, >= 2 lost (C_*), verdict in mon.
 
     Lost: a non-finite estimate or covariance, a covariance without a Cholesky factor
@@ -282,17 +281,17 @@ def check(model, lim, x, P, L, mon):  # pragma: no cover
     count = mon[M_COUNT]
     if count >= lim.block:
         nis = mon[M_NIS] / count
-        rel = math.sqrt(max(mon[M_REL], mon[M_REL_Y]) / count)  # the worse signal's
+        rel = 0.0  # RMS innovation / the running peak at the block's end, worse signal
         corr = 0.0  # the larger lag-1 autocorrelation of the two innovation sequences
         for j in range(2):
+            if peak[j] > 0.0:
+                rel = max(rel, math.sqrt(mon[M_SQ + j] / count) / peak[j])
             if mon[M_SQ + j] > 0.0:
                 corr = max(corr, mon[M_AC + j] / mon[M_SQ + j])
             mon[M_AC + j] = 0.0
             mon[M_SQ + j] = 0.0
         mon[M_LAST_CORR] = corr
         mon[M_NIS] = 0.0
-        mon[M_REL] = 0.0
-        mon[M_REL_Y] = 0.0
         mon[M_COUNT] = 0.0
         mon[M_BLOCK] += 1.0
         mon[M_LAST_NIS] = nis

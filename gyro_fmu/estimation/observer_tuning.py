@@ -57,8 +57,8 @@ class ObserverTuning:
         1.0e6, "rad/s3", "initial 1-sigma of d2Omega_z/dt2 (omega_order 3)")
     sigma0_position: float = _tuning(
         0.0, "m", "initial 1-sigma of x and y; 0: scaled to the signal (the state is "
-        "taken at rest until the first nonzero measurement or drive, then known to 1 % of "
-        "the size of that signal)")
+        "taken at rest until the first drive or measurement above its noise, then known to "
+        "1 % of the drive's static deflection, or to the size of that measurement)")
     sigma0_velocity: float = _tuning(
         0.0, "m/s", "initial 1-sigma of vx and vy; 0: scaled to the signal like "
         "sigma0_position (times the guessed natural frequency)")
