@@ -55,25 +55,31 @@ def test_loops_lock_in_both_modes(mode: int) -> None:
     assert abs(f_osc - (TRUE.f_x if mode == 1 else TRUE.f_y)) < 0.02  # at its resonance
 
 
-def test_transfer_model_equals_state_space() -> None:
+@pytest.mark.parametrize("beta", [0.0, 3e-3])
+def test_transfer_model_equals_state_space(beta: float) -> None:
     """The estimator's H(omega) at the true parameters equals C (i w - A)^-1 B of the
-    resonator's own state-space model (10 states, pick-off lags), times the hold."""
-    w_ref = TRUE.omega_x
+    resonator's own state-space model (10 states, pick-off lags), times the hold; with
+    non-orthogonal pick-offs (beta_x = beta_y = beta) too: the sensing matrix
+    [[cos b, sin b], [sin b, cos b]] is cos b [[1, tan b], [tan b, 1]], the model's
+    beta_s = tan b with cos b taken into B."""
+    res = replace(TRUE, beta_x=beta, beta_y=beta)
+    w_ref = res.omega_x
     h = 25e-6
-    rho = true_rho(TRUE, TRUE.f_x)
-    lag_x = 1 / (1 + 1j * w_ref * TRUE.tau_x)
-    B = TRUE.forcer * TRUE.Px * lag_x / (2 * w_ref)
-    x = np.array([0.0, TRUE.omega_y - w_ref, TRUE.dxx, TRUE.dyy, TRUE.dxy, TRUE.kxy / w_ref,
-                  0.3, *np.column_stack([B.real.ravel(), B.imag.ravel()]).ravel()])
+    rho = true_rho(res, res.f_x)
+    lag_x = 1 / (1 + 1j * w_ref * res.tau_x)
+    B = res.forcer * res.Px * lag_x / (2 * w_ref) * math.cos(beta)
+    x = np.array([0.0, res.omega_y - w_ref, res.dxx, res.dyy, res.dxy, res.kxy / w_ref,
+                  0.3, *np.column_stack([B.real.ravel(), B.imag.ravel()]).ravel(),
+                  math.tan(beta)])
     omega = w_ref + 2 * math.pi * np.linspace(-2, 2, 9)
-    H = transfer(x, omega, w_ref, rho, TRUE.kappa, h, fit_feedthrough=False)
-    A, Bc = system_matrices(TRUE, 0.3)
+    H = transfer(x, omega, w_ref, rho, res.kappa, h, fit_feedthrough=False)
+    A, Bc = system_matrices(res, 0.3)
     for k, w in enumerate(omega):
         G = np.linalg.solve(1j * w * np.eye(A.shape[0]) - A, Bc)
-        ref = np.diag([TRUE.Px, TRUE.Py]) @ G[4:6] * (1 - np.exp(-1j * w * h)) / (1j * w * h)
+        ref = np.diag([res.Px, res.Py]) @ G[4:6] * (1 - np.exp(-1j * w * h)) / (1j * w * h)
         # the estimator freezes the pick-off lags at f_x: their phase moves by
         # tau |w - w_ref| <= 8e-7 s x 12.6 rad/s = 1e-5 rad over +-2 Hz
-        tol = 3 * TRUE.tau_y * abs(w - w_ref) + 1e-9
+        tol = 3 * res.tau_y * abs(w - w_ref) + 1e-9
         assert np.allclose(H[k], ref, rtol=tol, atol=tol * abs(ref).max())
 
 

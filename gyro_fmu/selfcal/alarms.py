@@ -102,8 +102,9 @@ def misfit_problems(rms_residual: float, noise: float, n_samples: int,
         return ratio, [
             f"the eq. 19 model does not fit the sidebands: rms residual {rms_residual:.2g} V "
             f"is {ratio:.3g} times what the pick-off noise leaves ({expected:.2g} V, limit "
-            f"{MISFIT_LIMIT:g}x): an imperfection the model lacks (cubic stiffness: lower "
-            "the drive --loop amplitude=V) or loops still settling (longer --settle)"]
+            f"{MISFIT_LIMIT:g}x): an imperfection the model lacks (cubic or cross-cubic "
+            "stiffness: lower the drive --loop amplitude=V; force noise; the temperature "
+            "moving during the record: let it settle), or loops still settling (--settle)"]
     return ratio, []
 
 

@@ -202,7 +202,18 @@ def _cmd_lot(args: argparse.Namespace) -> int:
 
     if args.n < 1:
         raise ParameterError(f"-n {args.n!r} must be at least 1")
-    res = run_lot(args.n, LotModel(seed=args.seed), args.scheduler, args.workers,
+    model_fields = {f.name for f in fields(LotModel)} - {"seed"}
+    changes: dict[str, float] = {}
+    for item in args.model or []:
+        name, sep, value = item.partition("=")
+        if not sep or name.strip() not in model_fields:
+            raise ParameterError(f"--model {item!r} must read NAME=VALUE with NAME one of "
+                                 f"{', '.join(sorted(model_fields))}")
+        try:
+            changes[name.strip()] = float(value)
+        except ValueError:
+            raise ParameterError(f"--model {item!r}: {value!r} is not a number") from None
+    res = run_lot(args.n, LotModel(seed=args.seed, **changes), args.scheduler, args.workers,
                   progress=not args.quiet)
     paths = write_lot(res, Path(args.out or "runs/selfcal_lot"), figures=not args.no_figures)
     s = res.summary()
@@ -263,6 +274,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                          "against its rate table, on Dask")
     lot.add_argument("-n", type=int, default=100, help="resonators (default 100)")
     lot.add_argument("--seed", type=int, default=2026, help="seed of the draw")
+    lot.add_argument("--model", action="append", metavar="NAME=VALUE",
+                     help="tolerance model field (f_min, Q_max, split_max, "
+                          "cubic_shift_max, noise_density, ...; see selfcal/lot.py)")
     lot.add_argument("--workers", type=int, help="local Dask workers (default: all cores)")
     lot.add_argument("--scheduler", help="address of an existing Dask scheduler")
     lot.add_argument("--out", help="output folder (default runs/selfcal_lot)")

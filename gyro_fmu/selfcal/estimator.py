@@ -8,7 +8,8 @@ phasors PO = (Vpx, Vpy) at the carrier and its sidebands obey PO = H(omega) D, w
 
 (eq. 1 in the frequency domain). rho = relative pick-off gain and phase (measured with
 the ring excitation, eq. 4's relative angle), B = forcer gains and misalignments times
-the x pick-off gain (complex: electronics phases), zoh = the hold's transfer, E_res =
+the x pick-off gain (complex: electronics phases), C = [[1, beta_s], [beta_s, 1]] the
+pick-offs' non-orthogonality (H = diag(1, rho) C M^-1 B ...), zoh = the hold's transfer, E_res =
 feed-through left after the correction. The fit minimises J of eq. 19,
 sum over modes and frequencies of |PO_measured - H D_measured|^2, with
 scipy.optimize.least_squares; stiffnesses enter as the mode frequencies.
@@ -31,6 +32,11 @@ from scipy.optimize import least_squares
 #: Names of the fitted parameters, in vector order (SI: rad/s, 1/s, V/V).
 CORE = ("dw_x", "dw_y", "dxx", "dyy", "dxy", "kxy_over_w", "Omega_z")
 FORCER = ("B_xx", "B_xy", "B_yx", "B_yy")
+#: The pick-offs' non-orthogonality (beta_x + beta_y) / 2, rad: each pick-off also
+#: senses the other axis, x_s = x + beta_s y, y_s = y + beta_s x. Their common rotation
+#: (beta_x = -beta_y) is absorbed by the other parameters (it rotates K and D, which
+#: stay symmetric, and leaves J alone); this part is not.
+PICKOFF = ("beta_s",)
 RESIDUAL_FEEDTHROUGH = ("E_xx", "E_xy", "E_yx", "E_yy")
 
 
@@ -100,9 +106,11 @@ def transfer(x: np.ndarray, omega: np.ndarray, omega_ref: float, rho: complex, k
     M[:, 0, 1] = kxy + iw * (dxy - 2 * kappa * Om)
     M[:, 1, 0] = kxy + iw * (dxy + 2 * kappa * Om)
     G = np.linalg.solve(M, np.broadcast_to(B, M.shape)) * zoh(omega, h)[:, None, None]
+    beta = x[15]
+    G = G + beta * G[:, ::-1, :]  # C G: each sensed axis picks up beta of the other
     G[:, 1, :] *= rho
     if fit_feedthrough:
-        E = _complex4(x[15:23]) * 1e-3
+        E = _complex4(x[16:24]) * 1e-3
         G += E[None] * np.exp(-1j * omega * h)[:, None, None]
     return G
 
@@ -128,7 +136,7 @@ def initial_guess(modes: list[ModeData], plant_gain: float, q_nominal: float,
     w1 = by_mode[1].omega_osc if 1 in by_mode else modes[0].omega_osc
     w2 = by_mode[2].omega_osc if 2 in by_mode else w1
     d = w1 / q_nominal
-    x = np.zeros(23 if fit_feedthrough else 15)
+    x = np.zeros(24 if fit_feedthrough else 16)
     x[0], x[1], x[2], x[3] = 0.0, w2 - w1, d, d
     x[7] = x[13] = plant_gain
     return w1, x
@@ -156,7 +164,7 @@ def fit_sidebands(modes: list[ModeData], rho: complex, kappa: float, h: float,
     cov[np.ix_(mask, mask)] = s2 * np.linalg.pinv(res.jac.T @ res.jac)
     x = x0.copy()
     x[mask] = res.x
-    names = CORE + FORCER + (RESIDUAL_FEEDTHROUGH if fit_feedthrough else ())
+    names = CORE + FORCER + PICKOFF + (RESIDUAL_FEEDTHROUGH if fit_feedthrough else ())
     return SidebandFit(x, cov, omega_ref, rho, kappa, h, fit_feedthrough,
                        math.sqrt(s2), names)
 

@@ -4,8 +4,8 @@
 engineer knows: frequency log-uniform 3-15 kHz, Q log-uniform 5e3-2e5, forcer gain
 growing as f^2 so the same voltages hold 1 V of pick-off) and the *instrument*
 built from it (frequency and Q off the design, mode split, Q mismatch, cross damping
-and stiffness, forcer misalignments, pick-off gain and phase mismatch, feed-through,
-cubic stiffness, pick-off noise of a given density). The loops and the step are
+and stiffness, forcer misalignments, pick-off gain, phase and non-orthogonality,
+feed-through, cubic stiffness, pick-off noise of a given density). The loops and the step are
 designed from the nominal (design.design); the instrument is calibrated
 (sequence.self_calibrate) and its noise-free rate table taken with the same
 feed-forward (ratetable.rate_table), as `gyro-fmu selfcal --compare-ratetable` does.
@@ -56,6 +56,7 @@ class LotModel:
     forcer_gain: float = 0.1  #: relative 1-sigma of Bx, By around 0.05 (f / 4 kHz)^2
     pickoff_gain: float = 0.03  #: relative 1-sigma of Py / Px - 1
     pickoff_phase: float = 0.01  #: rad, phi_x, phi_y uniform in 0.01 +- this
+    pickoff_angle: float = 2.0e-3  #: rad, 1-sigma of beta_x, beta_y (non-orthogonality)
     feedthrough: float = 2.0e-3  #: V/V, each entry uniform in [0, this]
     cubic_shift_max: float = 2.0e-5  #: Hz at 1 um, k3x, k3y log-uniform from 1/100 of it
     noise_density: float = 1.25e-6  #: V/sqrt(Hz), white pick-off noise
@@ -91,6 +92,8 @@ class LotModel:
                 "Py": 1.0e6 * (1 + rng.normal(0.0, self.pickoff_gain)),
                 "phi_x": 0.01 + rng.uniform(-self.pickoff_phase, self.pickoff_phase),
                 "phi_y": 0.01 + rng.uniform(-self.pickoff_phase, self.pickoff_phase),
+                "beta_x": rng.normal(0.0, self.pickoff_angle),
+                "beta_y": rng.normal(0.0, self.pickoff_angle),
                 **{k: rng.uniform(0.0, self.feedthrough) for k in ("Exx", "Exy", "Eyx", "Eyy")},
                 # amplitude-frequency shift 3 k3 a^2 / (8 omega) rad/s at a = 1 um
                 "k3x": 8 * w * 2 * math.pi * shift[0] / 3 / 1e-12,
