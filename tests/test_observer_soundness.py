@@ -184,3 +184,24 @@ def test_a_step_too_coarse_for_the_resonance_is_refused_by_name_and_changes_noth
     assert obs.get_state() == before
     obs.step(1e-8, 0.0, 0.0, 0.0, 100e-6)
     assert obs.status == 0
+
+
+def test_a_slow_overconfident_noise_free_convergence_is_flagged():
+    """10 us steps, parameters 30 % off, noise-free: at 20 ms Omega is 0.7 % off at ~35
+    sigmas; the innovations are a slow misfit, not noise: status 1, not 0."""
+    sc = scenario("default")
+    truth = sc.params
+    signs = {"kxx": 1, "kyy": -1, "kxy": 1, "dxx": 1, "dyy": 1, "dxy": -1, "m": 1}
+    guess = GyroParameters(**{n: getattr(truth, n) * (1 + 0.3 * s) for n, s in signs.items()})
+    obs = GyroStateObserver(guess, 0.0, 1, ObserverTuning(q_Omega=0.0, omega_order=1))
+    plant = GyroPlantModel(truth)
+    for k in range(2000):
+        ux = sc.the_drive.ux(k * 10e-6)
+        z = plant.measured()
+        obs.step(ux, 0.0, z[0], z[2], 10e-6)
+        plant.step(ux, 0.0, 1.0, 10e-6)
+    err = obs.estimates()["Omega_z"] - 1.0
+    assert abs(err) > 5 * obs.sigmas()["Omega_z"]
+    assert obs.status == 1  # innovations above 1.5 noise_rel, or not white
+    assert obs.warning.startswith("observer at t=0.02 s: ")
+    assert "not white" in obs.warning or "miss by" in obs.warning

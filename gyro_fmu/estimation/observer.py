@@ -149,7 +149,6 @@ class GyroStateObserver:
         self.t = 0.0  # s since construction
         self.status = 0  #: 0 ok, 1 warning (innovations above their band), 2 lost
         self.lost: str | None = None  #: why the filter is lost (then every step refuses)
-        self.warning: str | None = None  #: the last status-1 verdict, in words
 
     def _build(self, wx: float, wy: float, theta0: np.ndarray, scale: np.ndarray) -> None:
         """The ObserverModel and caches that depend only on the scaling (set_state too)."""
@@ -289,13 +288,16 @@ class GyroStateObserver:
     def _verdict(self, code: int, h: float) -> None:
         """Act on a monitor verdict: status 0/1, or lost: the filter refuses from now on."""
         if code < 2:
-            if code == 1 and self.status == 0:
-                self.warning = warning_message(self.mon, self._lim, self.t)
             self.status = code
             return
         self.status = 2
         self.lost = lost_message(self.mon, self, h)
         raise ObserverDivergedError(self.lost)
+
+    @property
+    def warning(self) -> str | None:
+        """The latest block's warning in words while status is 1, else None."""
+        return warning_message(self.mon, self._lim, self.t) if self.status == 1 else None
 
     def update(self, z1: float, z2: float, h: float) -> None:
         """Correct the estimate with the measured pair (z1, z2) at t (eq. 8).
