@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gyro_fmu.selfcal.alarms import CalibrationRefusedError
 from gyro_fmu.selfcal.ratetable import rate_table
 from gyro_fmu.selfcal.resonator import EARTH_RATE, ResonatorParameters
 from gyro_fmu.selfcal.sequence import FeedForward, SelfCalConfig, self_calibrate
@@ -34,7 +35,12 @@ SF_TARGET_PPM = 100.0
 
 def compare(res: ResonatorParameters, cfg: SelfCalConfig, noisy_table: bool = False) -> dict:
     t = time.perf_counter()
-    sc = self_calibrate(res, cfg)
+    try:
+        sc, verdict = self_calibrate(res, cfg), ""
+    except CalibrationRefusedError as exc:  # the number it would have given, marked
+        if exc.result is None:
+            raise
+        sc, verdict = exc.result, "refused: " + exc.problems[0][:70]
     wall = time.perf_counter() - t
     ff = FeedForward(sc.feedthrough, sc.rho, sc.feedthrough * 0)
     truth = rate_table(replace(res, noise=0.0), ff, cfg)
@@ -47,7 +53,7 @@ def compare(res: ResonatorParameters, cfg: SelfCalConfig, noisy_table: bool = Fa
         "d_bias": sc.bias - truth.bias,
         "d_sf_ppm": (sc.scale_factor / truth.scale_factor - 1) * 1e6,
         "Omega_hat": sc.physical["Omega_z"], "sigma_Omega": sc.physical["sigma_Omega_z"],
-        "wall": wall, "rms_residual": sc.rms_residual,
+        "wall": wall, "rms_residual": sc.rms_residual, "verdict": verdict,
     }
     if noisy_table:
         rt = rate_table(res, ff, cfg, dwell=2.5, average=2.0)
@@ -60,7 +66,7 @@ def row(label: str, r: dict) -> str:
     ok = abs(r["d_bias"]) < BIAS_TARGET and abs(r["d_sf_ppm"]) < SF_TARGET_PPM
     return (f"{label:<34} {r['d_bias']:+.2e} ({r['sigma_bias']:.1e})  "
             f"{r['d_sf_ppm']:+8.1f} ({r['sigma_sf_ppm']:6.1f})  {r['wall']:5.1f}  "
-            f"{'yes' if ok else 'NO'}")
+            f"{'yes' if ok else 'NO'}  {r['verdict']}")
 
 
 HEADER = (f"{'case':<34} {'bias - table rad/s (1σ)':<24} {'SF - table ppm (1σ)':<20} "

@@ -35,10 +35,19 @@ def test_non_orthogonal_pickoffs_are_calibrated(beta_x, beta_y) -> None:
 
 
 @pytest.mark.parametrize("changes", [
-    {"k3xy": 4.2e14},  # cross-cubic (eqs. 22-23), 1e-3 Hz
+    {"k3x": 4.2e15, "k3y": 4.2e15},  # 0.01 Hz at 1 um: was +1.1e-4 rad/s, +5055 ppm
+    {"k3x": -4.2e15, "k3y": 2e15, "k3xy": 2e14, "k3yx": -4.2e14},  # softening, cross-cubic
+], ids=["cubic", "cross-cubic"])
+def test_cubic_stiffness_is_calibrated(changes) -> None:
+    # the linear model misfits; the cubic sideband terms (eqs. 24-27) are fitted then
+    d_bias, d_sf = against_table(replace(TRUE, **changes))
+    assert abs(d_bias) < 7.27e-5 / 10 and abs(d_sf) < 100 / 5
+
+
+@pytest.mark.parametrize("changes", [
     {"m_modal": 1e-9},  # thermomechanical force noise at 300 K
     {"temperature_rate": 0.05, "tc_f": -30e-6},  # 0.05 K/s during the records
-], ids=["cross-cubic", "force-noise", "temperature-ramp"])
+], ids=["force-noise", "temperature-ramp"])
 def test_imperfections_not_modelled_are_refused_not_answered(changes) -> None:
     with pytest.raises(CalibrationRefusedError, match="does not fit the sidebands"):
         self_calibrate(replace(TRUE, **changes), design(TRUE, **SHORT))

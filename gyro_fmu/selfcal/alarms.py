@@ -11,9 +11,10 @@ raises CalibrationRefusedError with all of them instead of returning a number.
   noise alone would leave. A Hann-weighted phasor over N samples of noise of
   variance s^2 has variance 6 s^2 / N, 3 s^2 / N per real component; s is estimated
   from the pick-off record's spectrum above the carrier (median of a Hann
-  periodogram, robust to lines). A model that fits leaves a ratio near 1; an imperfection the
-  model lacks (cubic stiffness: 0.01 Hz of amplitude-frequency shift gives ~120)
-  or unsettled loops leave more.
+  periodogram, robust to lines). A model that fits leaves a ratio near 1; an
+  imperfection the model lacks (force noise: 18.6; a 0.01 K/s temperature ramp: 1e3)
+  or unsettled loops leave more. When the linear model misfits, sequence refits with
+  the cubic terms (eqs. 24-27) and keeps them if they fit.
 - Conditioning and uncertainty: the fit's 1-sigmas must be finite and below the
   targets (the record length was chosen for them; see sequence.choose_record).
 """
@@ -37,8 +38,9 @@ REBALANCE_LIMIT = 1e-3
 #: misfit ratio above which the model is refused (chi-square with ~200 degrees of
 #: freedom: a ratio of 1.2 is already 3 sigma of the ratio's own spread).
 MISFIT_LIMIT = 2.0
-#: relative: model-error floor of a noise-free fit (measured: 1.5e-8 of the amplitude).
-MODEL_FLOOR = 1e-7
+#: relative: model-error floor of a noise-free fit (measured: 1.5e-8 of the amplitude
+#: for the linear model, 2.0e-7 with the cubic terms at a 0.01 Hz shift, 8.5e-7 at 0.03 Hz).
+MODEL_FLOOR = 3e-7
 
 
 class CalibrationRefusedError(GyroFmuError):

@@ -37,6 +37,14 @@ FORCER = ("B_xx", "B_xy", "B_yx", "B_yy")
 #: (beta_x = -beta_y) is absorbed by the other parameters (it rotates K and D, which
 #: stay symmetric, and leaves J alone); this part is not.
 PICKOFF = ("beta_s",)
+#: Cubic stiffness at the operating amplitude a, eqs. 20-23 linearized about the carrier
+#: (eqs. 24-27), 1/s^2: mode 1 auto (k3x) and cross (k3yx, x^3 in the y equation),
+#: mode 2 auto (k3y) and cross (k3xy); gamma = (3/4) k3 |q0|^2 in the fit's units.
+CUBIC = ("gamma_x1", "gamma_yx1", "gamma_y2", "gamma_xy2")
+#: Slots of x.
+I_BETA = 15
+I_CUBIC = slice(16, 20)
+I_FEEDTHROUGH = slice(20, 28)
 RESIDUAL_FEEDTHROUGH = ("E_xx", "E_xy", "E_yx", "E_yy")
 
 
@@ -92,27 +100,92 @@ def _complex4(v: np.ndarray) -> np.ndarray:
     return (v[0::2] + 1j * v[1::2]).reshape(2, 2)
 
 
-def transfer(x: np.ndarray, omega: np.ndarray, omega_ref: float, rho: complex, kappa: float,
-             h: float, fit_feedthrough: bool, Omega_z: float | None = None) -> np.ndarray:
-    """H(omega) (n x 2 x 2) for parameter vector x; Omega_z overrides the fitted rate."""
+def _dynamics(x: np.ndarray, omega: np.ndarray, omega_ref: float, kappa: float,
+              Omega_z: float | None = None) -> np.ndarray:
+    """M(omega) (n x 2 x 2) of eq. 1, the linear part; Omega_z overrides the fitted rate."""
     wx, wy = omega_ref + x[0], omega_ref + x[1]
     dxx, dyy, dxy, kxy = x[2], x[3], x[4], x[5] * omega_ref
     Om = x[6] if Omega_z is None else Omega_z
-    B = _complex4(x[7:15]) * (2 * omega_ref)
     iw = 1j * omega
     M = np.empty((len(omega), 2, 2), complex)
     M[:, 0, 0] = (wx - omega) * (wx + omega) + iw * dxx
     M[:, 1, 1] = (wy - omega) * (wy + omega) + iw * dyy
     M[:, 0, 1] = kxy + iw * (dxy - 2 * kappa * Om)
     M[:, 1, 0] = kxy + iw * (dxy + 2 * kappa * Om)
+    return M
+
+
+def _cubic(x: np.ndarray, mode: int) -> np.ndarray:
+    """Gamma (2 x 2): the cubic terms of the primary axis' displacement in each equation
+    (auto on the diagonal, cross in the secondary's row) for mode 1 or 2."""
+    g = np.zeros((2, 2))
+    p, s = (0, 1) if mode == 1 else (1, 0)
+    g[p, p], g[s, p] = (x[16], x[17]) if mode == 1 else (x[18], x[19])
+    return g
+
+
+def _read(q: np.ndarray, D: np.ndarray, omega: np.ndarray, x: np.ndarray, rho: complex,
+          h: float, fit_feedthrough: bool) -> np.ndarray:
+    """Pick-off phasors (n x 2) from the model displacements q (n x ...): C, rho, E_res."""
+    q = q + x[I_BETA] * q[:, ::-1]  # C q: each sensed axis picks up beta of the other
+    q[:, 1] *= rho
+    if fit_feedthrough:
+        E = _complex4(x[I_FEEDTHROUGH]) * 1e-3
+        q = q + np.einsum("ij,nj->ni", E, D) * np.exp(-1j * omega * h)[:, None]
+    return q
+
+
+def transfer(x: np.ndarray, omega: np.ndarray, omega_ref: float, rho: complex, kappa: float,
+             h: float, fit_feedthrough: bool, Omega_z: float | None = None,
+             carrier_cubic: np.ndarray | None = None) -> np.ndarray:
+    """H(omega) (n x 2 x 2) of the linear model for parameter vector x; Omega_z overrides
+    the fitted rate; carrier_cubic (Gamma of _cubic) adds the cubic stiffness a steady
+    carrier sees (eq. 24's |q0|^2 q0 term)."""
+    M = _dynamics(x, omega, omega_ref, kappa, Omega_z)
+    if carrier_cubic is not None:
+        M = M + carrier_cubic[None]
+    B = _complex4(x[7:15]) * (2 * omega_ref)
     G = np.linalg.solve(M, np.broadcast_to(B, M.shape)) * zoh(omega, h)[:, None, None]
-    beta = x[15]
-    G = G + beta * G[:, ::-1, :]  # C G: each sensed axis picks up beta of the other
+    G = G + x[I_BETA] * G[:, ::-1, :]  # C G: each sensed axis picks up beta of the other
     G[:, 1, :] *= rho
     if fit_feedthrough:
-        E = _complex4(x[16:24]) * 1e-3
+        E = _complex4(x[I_FEEDTHROUGH]) * 1e-3
         G += E[None] * np.exp(-1j * omega * h)[:, None, None]
     return G
+
+
+def predicted_pickoffs(x: np.ndarray, md: ModeData, omega_ref: float, rho: complex,
+                       kappa: float, h: float, fit_feedthrough: bool) -> np.ndarray:
+    """The model's pick-off phasors (n x 2) for the record's drive phasors md.D.
+
+    Cubic stiffness (eqs. 20-23, the seed's sideband terms eqs. 24-27): the primary's
+    k3 x^3 has, at harmonic m of the grid, the phasor (3/4) k3 sum_{j+k-l=m} X_j X_k
+    conj(X_l). Its linear part, 2 |X0|^2 X_m + X0^2 conj(X_-m), couples each sideband
+    to its mirror; its products of sidebands are 8 % of it with the default 7 tones of
+    index 0.04 (measured: the linear part alone left 8 % of the misfit). The sum is
+    taken whole, from the measured primary pick-off (cubic_phasors), and the model
+    solves M_m q_m = B D_m zoh_m - Gamma[:, p] W_m, the cubic coefficients Gamma scaled
+    so that a steady carrier sees Gamma q0 (transfer's carrier_cubic).
+    """
+    M = _dynamics(x, md.omega, omega_ref, kappa)
+    B = _complex4(x[7:15]) * (2 * omega_ref)
+    F = np.einsum("ij,nj->ni", B, md.D) * zoh(md.omega, h)[:, None]
+    g = _cubic(x, md.mode) if md.mode in (1, 2) else np.zeros((2, 2))
+    if g.any():
+        p = 0 if md.mode == 1 else 1
+        F = F - np.outer(cubic_phasors(md, rho), g[:, p])
+    q = np.linalg.solve(M, F[..., None])[..., 0]
+    return _read(q, md.D, md.omega, x, rho, h, fit_feedthrough)
+
+
+def cubic_phasors(md: ModeData, rho: complex) -> np.ndarray:
+    """sum_{j+k-l=m} q_j q_k conj(q_l) / |q0|^2 over the harmonic grid, q the measured
+    primary displacement in the fit's units (x pick-off volts: PO_x, or PO_y / rho)."""
+    q = md.PO[:, 0] if md.mode == 1 else md.PO[:, 1] / rho
+    n = len(q)
+    c = n // 2  # the grid is symmetric about the carrier
+    w = np.convolve(np.convolve(q, q), np.conj(q[::-1]))  # harmonics -3c..3c
+    return w[2 * c: 2 * c + n] / abs(q[c]) ** 2
 
 
 def _residuals(free, x_full, mask, modes, omega_ref, rho, kappa, h, fit_ff):
@@ -120,8 +193,7 @@ def _residuals(free, x_full, mask, modes, omega_ref, rho, kappa, h, fit_ff):
     x[mask] = free
     out = []
     for md in modes:
-        H = transfer(x, md.omega, omega_ref, rho, kappa, h, fit_ff)
-        r = md.PO - np.einsum("nij,nj->ni", H, md.D)
+        r = md.PO - predicted_pickoffs(x, md, omega_ref, rho, kappa, h, fit_ff)
         out.append(r.ravel())
     r = np.concatenate(out)
     return np.concatenate([r.real, r.imag])
@@ -136,7 +208,7 @@ def initial_guess(modes: list[ModeData], plant_gain: float, q_nominal: float,
     w1 = by_mode[1].omega_osc if 1 in by_mode else modes[0].omega_osc
     w2 = by_mode[2].omega_osc if 2 in by_mode else w1
     d = w1 / q_nominal
-    x = np.zeros(24 if fit_feedthrough else 16)
+    x = np.zeros(28 if fit_feedthrough else 20)
     x[0], x[1], x[2], x[3] = 0.0, w2 - w1, d, d
     x[7] = x[13] = plant_gain
     return w1, x
@@ -144,14 +216,19 @@ def initial_guess(modes: list[ModeData], plant_gain: float, q_nominal: float,
 
 def fit_sidebands(modes: list[ModeData], rho: complex, kappa: float, h: float,
                   plant_gain: float, q_nominal: float, fit_feedthrough: bool = True,
-                  fixed_rate: float | None = None) -> SidebandFit:
+                  fixed_rate: float | None = None, cubic: bool = False) -> SidebandFit:
     """Minimise eq. 19 over the parameters; covariance from the Jacobian at the optimum.
 
     fixed_rate: hold Omega_z at this value instead of fitting it (what a calibration
     without mode reversal must assume; the earth-rate study uses it).
+    cubic: also fit the cubic terms at the operating amplitude (CUBIC); otherwise they
+    are held at 0 (the seed: "if the hardware indicates their inclusion").
     """
     omega_ref, x0 = initial_guess(modes, plant_gain, q_nominal, fit_feedthrough)
     mask = np.ones(x0.size, bool)
+    present = {md.mode for md in modes}
+    mask[I_CUBIC] = [cubic and 1 in present, cubic and 1 in present,
+                     cubic and 2 in present, cubic and 2 in present]
     if fixed_rate is not None:
         x0[6] = fixed_rate
         mask[6] = False
@@ -164,7 +241,7 @@ def fit_sidebands(modes: list[ModeData], rho: complex, kappa: float, h: float,
     cov[np.ix_(mask, mask)] = s2 * np.linalg.pinv(res.jac.T @ res.jac)
     x = x0.copy()
     x[mask] = res.x
-    names = CORE + FORCER + PICKOFF + (RESIDUAL_FEEDTHROUGH if fit_feedthrough else ())
+    names = CORE + FORCER + PICKOFF + CUBIC + (RESIDUAL_FEEDTHROUGH if fit_feedthrough else ())
     return SidebandFit(x, cov, omega_ref, rho, kappa, h, fit_feedthrough,
                        math.sqrt(s2), names)
 
@@ -173,7 +250,7 @@ def closed_loop_rate(fit: SidebandFit, x: np.ndarray, Omega_z: float, omega_r: f
                      amplitude: float) -> float:
     """Rate output Im(u) of mode 1 (x oscillates at omega_r, y rebalanced), eq. 8."""
     H = transfer(x, np.array([omega_r]), fit.omega_ref, fit.rho, fit.kappa, fit.h,
-                 fit.fit_feedthrough, Omega_z=Omega_z)[0]
+                 fit.fit_feedthrough, Omega_z=Omega_z, carrier_cubic=_cubic(x, 1))[0]
     u = amplitude * np.linalg.inv(H)[1, 0] * np.exp(-0.5j * omega_r * fit.h)
     return float(u.imag)
 

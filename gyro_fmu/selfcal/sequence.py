@@ -57,6 +57,7 @@ class SelfCalConfig:
     ring_amplitude: float = 3.0  #: V, each ring tone of step 1 (0.3 V at the pick-offs)
     ring_offset: float = 260.0  #: Hz, ring tones at f_nominal -/+ this
     fit_feedthrough: bool = True  #: fit the feed-through left after the correction
+    cubic: bool = True  #: fit the cubic terms (eqs. 24-27) when the linear model misfits
     modes: tuple[int, ...] = (1, 2)  #: (1,) = no mode reversal
     fixed_rate: float | None = None  #: hold Omega_z at this value (no reversal: 0)
     engine: str = "inprocess"  #: "inprocess" or "fmu" (GyroResonator + GyroLoops FMUs)
@@ -195,10 +196,12 @@ class SelfCalResult:
     record: float = math.nan  #: s, length of each sideband record used
     misfit_ratio: float = math.nan  #: rms residual / what the pick-off noise leaves
     pickoff_noise: float = math.nan  #: V per sample, estimated from the records
+    cubic: bool = False  #: the cubic terms of eqs. 24-27 were fitted
 
     def summary(self) -> dict:
         return {
             "record_s": self.record, "misfit_ratio": self.misfit_ratio,
+            "cubic_terms_fitted": self.cubic,
             "pickoff_noise_estimate_V": self.pickoff_noise,
             "bias_rad_s": self.bias, "sigma_bias_rad_s": self.sigma_bias,
             "scale_factor_V_per_rad_s": self.scale_factor,
@@ -280,29 +283,41 @@ def _calibrate(res: ResonatorParameters, cfg: SelfCalConfig, ff: FeedForward,
         data.append(md)
     if problems:  # no fit of records whose loops did not hold
         return None, problems
-    try:
-        with np.errstate(all="raise"):
-            result = estimate(data, ff, cfg, start)
-    except (np.linalg.LinAlgError, ValueError, ZeroDivisionError, FloatingPointError) as exc:
-        return None, [f"the sideband fit failed numerically ({type(exc).__name__}: {exc}): "
-                      "the records do not determine the model; check the loops lock "
-                      "(--loop) and raise the sideband index (--index)"]
-    result.record = cfg.record
-    result.pickoff_noise = math.sqrt(float(np.mean(noise)))
+    noise_level = math.sqrt(float(np.mean(noise)))
     n = round(cfg.record / cfg.step)
-    result.misfit_ratio, problems = alarms.misfit_problems(
-        result.rms_residual, result.pickoff_noise, n, cfg.loops.amplitude)
+    result, problems = None, []
+    # the linear model first; the cubic terms when it does not fit (the seed: "if the
+    # hardware indicates their inclusion"), kept only if they make it fit
+    for cubic in (False, True) if cfg.cubic else (False,):
+        try:
+            with np.errstate(all="raise"):
+                trial = estimate(data, ff, cfg, start, cubic=cubic)
+        except (np.linalg.LinAlgError, ValueError, ZeroDivisionError,
+                FloatingPointError) as exc:
+            if result is not None:
+                break
+            return None, [f"the sideband fit failed numerically ({type(exc).__name__}: "
+                          f"{exc}): the records do not determine the model; check the "
+                          "loops lock (--loop) and raise the sideband index (--index)"]
+        trial.record, trial.pickoff_noise, trial.cubic = cfg.record, noise_level, cubic
+        trial.misfit_ratio, trial_problems = alarms.misfit_problems(
+            trial.rms_residual, noise_level, n, cfg.loops.amplitude)
+        if result is None or not trial_problems:
+            result, problems = trial, trial_problems
+        if not problems:
+            break
     return result, problems
 
 
 def estimate(data: list[ModeData], ff: FeedForward, cfg: SelfCalConfig,
-             start: float | None = None) -> SelfCalResult:
-    """Step 4: fit eq. 19 and compute bias and scale factor of the mode-1 read-out."""
+             start: float | None = None, cubic: bool = False) -> SelfCalResult:
+    """Step 4: fit eq. 19 (with the cubic terms of eqs. 24-27 if asked) and compute
+    bias and scale factor of the mode-1 read-out."""
     lo = cfg.loops
 
     def fit_with(rho: complex) -> SidebandFit:
         return fit_sidebands(data, rho, cfg.kappa, cfg.step, lo.plant_gain, lo.q_nominal,
-                             cfg.fit_feedthrough, cfg.fixed_rate)
+                             cfg.fit_feedthrough, cfg.fixed_rate, cubic)
 
     fit = fit_with(ff.rho)
     m1 = next((d for d in data if d.mode == 1), data[0])
