@@ -13,8 +13,7 @@ raises CalibrationRefusedError with all of them instead of returning a number.
   from the pick-off record's spectrum above the carrier (median of a Hann
   periodogram, robust to lines). A model that fits leaves a ratio near 1; an
   imperfection the model lacks (force noise: 18.6; a 0.01 K/s temperature ramp: 1e3)
-  or unsettled loops leave more. When the linear model misfits, sequence refits with
-  the cubic terms (eqs. 24-27) and keeps them if they fit.
+  or unsettled loops leave more (the cubic terms of eqs. 24-27 are in the model).
 - Conditioning and uncertainty: the fit's 1-sigmas must be finite and below the
   targets (the record length was chosen for them; see sequence.choose_record).
 """

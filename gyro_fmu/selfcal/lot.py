@@ -5,10 +5,11 @@ engineer knows: frequency log-uniform 3-15 kHz, Q log-uniform 5e3-2e5, forcer ga
 growing as f^2 so the same voltages hold 1 V of pick-off) and the *instrument*
 built from it (frequency and Q off the design, mode split, Q mismatch, cross damping
 and stiffness, forcer misalignments, pick-off gain, phase and non-orthogonality,
-feed-through, cubic stiffness, pick-off noise of a given density). The loops and the step are
-designed from the nominal (design.design); the instrument is calibrated
-(sequence.self_calibrate) and its noise-free rate table taken with the same
-feed-forward (ratetable.rate_table), as `gyro-fmu selfcal --compare-ratetable` does.
+feed-through, cubic and cross-cubic stiffness (either sign), pick-off noise of a
+given density). The loops and the step are designed from the nominal
+(design.design); the instrument is calibrated (sequence.self_calibrate) and its
+noise-free rate table taken with the same feed-forward (ratetable.rate_table), as
+`gyro-fmu selfcal --compare-ratetable` does.
 
 Every resonator is one row: `good` (calibrated, within the targets of the table),
 `refused` (an alarm stopped it: its reasons; the untrusted answer and the table
@@ -58,7 +59,8 @@ class LotModel:
     pickoff_phase: float = 0.01  #: rad, phi_x, phi_y uniform in 0.01 +- this
     pickoff_angle: float = 2.0e-3  #: rad, 1-sigma of beta_x, beta_y (non-orthogonality)
     feedthrough: float = 2.0e-3  #: V/V, each entry uniform in [0, this]
-    cubic_shift_max: float = 2.0e-5  #: Hz at 1 um, k3x, k3y log-uniform from 1/100 of it
+    cubic_shift_max: float = 1.0e-2  #: Hz at 1 um, k3x, k3y log-uniform from 1/100 of it
+    cross_cubic_shift_max: float = 1.0e-3  #: Hz at 1 um, k3xy, k3yx the same way
     noise_density: float = 1.25e-6  #: V/sqrt(Hz), white pick-off noise
     seed: int = 2026
 
@@ -77,8 +79,9 @@ class LotModel:
             qx = q * (1 + rng.uniform(-self.Q_offset, self.Q_offset))
             w = 2 * math.pi * fx
             kappa = ResonatorParameters.kappa
-            shift = [self.cubic_shift_max * math.exp(rng.uniform(math.log(1e-2), 0.0))
-                     for _ in range(2)]
+            shift = [top * rng.choice((-1.0, 1.0)) * math.exp(rng.uniform(math.log(1e-2), 0.0))
+                     for top in (self.cubic_shift_max, self.cubic_shift_max,
+                                 self.cross_cubic_shift_max, self.cross_cubic_shift_max)]
             step = 1.0 / (10 * round(f))
             instrument = {
                 "f_x": fx, "f_y": fy, "Q_x": qx,
@@ -96,8 +99,8 @@ class LotModel:
                 "beta_y": rng.normal(0.0, self.pickoff_angle),
                 **{k: rng.uniform(0.0, self.feedthrough) for k in ("Exx", "Exy", "Eyx", "Eyy")},
                 # amplitude-frequency shift 3 k3 a^2 / (8 omega) rad/s at a = 1 um
-                "k3x": 8 * w * 2 * math.pi * shift[0] / 3 / 1e-12,
-                "k3y": 8 * w * 2 * math.pi * shift[1] / 3 / 1e-12,
+                **{k: 8 * w * 2 * math.pi * v / 3 / 1e-12
+                   for k, v in zip(("k3x", "k3y", "k3xy", "k3yx"), shift, strict=True)},
                 "noise": self.noise_density * math.sqrt(0.5 / step),
                 # one Strang splitting per step (2 linear half-steps around the kick):
                 # the cubic force is small and 10 samples per cycle resolve it
