@@ -86,7 +86,8 @@ def pickoff_noise(signal: np.ndarray, h: float, f_carrier: float) -> float:
     loops feed back (measured: 1.6 times the white level at 0.2-0.7 f)."""
     n = len(signal)
     window = np.hanning(n)  # the carrier's leakage falls as 1/k^3, not 1/k
-    spec = np.abs(np.fft.rfft((signal - np.mean(signal)) * window)) ** 2
+    with np.errstate(over="ignore", invalid="ignore"):  # a diverged record: lock_problems
+        spec = np.abs(np.fft.rfft((signal - np.mean(signal)) * window)) ** 2  # names it
     f = np.fft.rfftfreq(n, h)
     band = spec[(f > 1.6 * f_carrier) & (f < 0.95 / (2 * h))]
     if band.size < 16:
