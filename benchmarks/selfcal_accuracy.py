@@ -66,7 +66,7 @@ def row(label: str, r: dict) -> str:
     ok = abs(r["d_bias"]) < BIAS_TARGET and abs(r["d_sf_ppm"]) < SF_TARGET_PPM
     return (f"{label:<34} {r['d_bias']:+.2e} ({r['sigma_bias']:.1e})  "
             f"{r['d_sf_ppm']:+8.1f} ({r['sigma_sf_ppm']:6.1f})  {r['wall']:5.1f}  "
-            f"{'yes' if ok else 'NO'}  {r['verdict']}")
+            f"{'yes' if ok else 'NO'}  {r.get('verdict', '')}")
 
 
 HEADER = (f"{'case':<34} {'bias - table rad/s (1σ)':<24} {'SF - table ppm (1σ)':<20} "
@@ -96,11 +96,11 @@ def one_at_a_time() -> None:
     print("\n## One factor at a time (seed 1)")
     print(HEADER)
     for noise in (0.0, 2.5e-4, 1e-3, 4e-3):
-        print(row(f"noise {noise} V, record 10 s", compare(replace(base, noise=noise),
-                                                           SelfCalConfig())))
+        print(row(f"noise {noise} V, record chosen", compare(replace(base, noise=noise),
+                                                            SelfCalConfig())))
     for record in (5.0, 10.0, 20.0, 40.0):
         print(row(f"noise 1e-3 V, record {record:g} s",
-                  compare(replace(base, noise=1e-3), SelfCalConfig(record=record))))
+                  compare(replace(base, noise=1e-3), SelfCalConfig(record=record, auto_record=False))))
     print(row("no noise, settle 2 s (transients)",
               compare(base, SelfCalConfig(settle=2.0))))
     print(row("no noise, feed-through residual not fit",
