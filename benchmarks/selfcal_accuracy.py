@@ -100,7 +100,8 @@ def one_at_a_time() -> None:
                                                             SelfCalConfig())))
     for record in (5.0, 10.0, 20.0, 40.0):
         print(row(f"noise 1e-3 V, record {record:g} s",
-                  compare(replace(base, noise=1e-3), SelfCalConfig(record=record, auto_record=False))))
+                  compare(replace(base, noise=1e-3),
+                          SelfCalConfig(record=record, auto_record=False))))
     print(row("no noise, settle 2 s (transients)",
               compare(base, SelfCalConfig(settle=2.0))))
     print(row("no noise, feed-through residual not fit",

@@ -51,3 +51,10 @@ def test_cubic_stiffness_is_calibrated(changes) -> None:
 def test_imperfections_not_modelled_are_refused_not_answered(changes) -> None:
     with pytest.raises(CalibrationRefusedError, match="does not fit the sidebands"):
         self_calibrate(replace(TRUE, **changes), design(TRUE, **SHORT))
+
+
+def test_a_cross_cubic_beyond_the_sideband_model_is_refused() -> None:
+    # 0.03 Hz at 1 um, 0.3 of the preset's 0.1 Hz half-width: in a lot, 0.43-0.45
+    # half-widths gave bias errors of 12 and 48 sigmas with a perfect misfit
+    with pytest.raises(CalibrationRefusedError, match="cross-cubic stiffness shifts"):
+        self_calibrate(replace(TRUE, k3yx=1.3e16), design(TRUE, **SHORT))

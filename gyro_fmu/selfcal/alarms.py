@@ -14,6 +14,12 @@ raises CalibrationRefusedError with all of them instead of returning a number.
   periodogram, robust to lines). A model that fits leaves a ratio near 1; an
   imperfection the model lacks (force noise: 18.6; a 0.01 K/s temperature ramp: 1e3)
   or unsettled loops leave more (the cubic terms of eqs. 24-27 are in the model).
+- Cubic validity: the cubic terms are fitted linearized about one carrier amplitude;
+  a cubic frequency shift comparable to the mode's half-width breaks that. Measured on
+  a lot of 30 with shifts to 0.1 Hz: cross-cubic shifts of 0.43-0.45 half-widths gave
+  bias errors of 11.7 and 48 sigmas (8e-5, 1.1e-4 rad/s) with the misfit at 1.0; those
+  of 0.10 or less, and auto-cubic shifts to 1.45 half-widths, stayed within 2.5
+  sigmas (an auto shift of 4.9 half-widths: 7.1 sigmas).
 - Conditioning and uncertainty: the fit's 1-sigmas must be finite and below the
   targets (the record length was chosen for them; see sequence.choose_record).
 """
@@ -40,6 +46,12 @@ MISFIT_LIMIT = 2.0
 #: relative: model-error floor of a noise-free fit (measured: 1.5e-8 of the amplitude
 #: for the linear model, 2.0e-7 with the cubic terms at a 0.01 Hz shift, 8.5e-7 at 0.03 Hz).
 MODEL_FLOOR = 3e-7
+
+
+#: largest cubic shift of the primary mode, in half-widths of that mode
+CUBIC_AUTO_LIMIT = 1.5
+#: largest cross-cubic shift (primary amplitude acting on the secondary), in half-widths
+CUBIC_CROSS_LIMIT = 0.2
 
 
 class CalibrationRefusedError(GyroFmuError):
@@ -108,6 +120,24 @@ def misfit_problems(rms_residual: float, noise: float, n_samples: int,
             "stiffness: lower the drive --loop amplitude=V; force noise; the temperature "
             "moving during the record: let it settle), or loops still settling (--settle)"]
     return ratio, []
+
+
+def cubic_problems(gamma: dict[tuple[int, str], float], d_primary: dict[int, float],
+                   d_secondary: dict[int, float], omega: float) -> list[str]:
+    """The fitted cubic terms (1/s^2, per mode: "auto" and "cross") against the mode
+    half-widths d / 2 (rad/s): a stiffness gamma shifts the mode by gamma / (2 omega)."""
+    out = []
+    for (mode, kind), g in gamma.items():
+        d = d_primary[mode] if kind == "auto" else d_secondary[mode]
+        ratio = abs(g) / (omega * abs(d)) if d else math.inf
+        limit = CUBIC_AUTO_LIMIT if kind == "auto" else CUBIC_CROSS_LIMIT
+        if not ratio <= limit:
+            out.append(
+                f"mode {mode}: the {'cubic' if kind == 'auto' else 'cross-cubic'} stiffness "
+                f"shifts the mode by {abs(g) / (2 * omega) / (2 * math.pi):.2g} Hz, {ratio:.2g} "
+                f"half-widths (limit {limit:g}): beyond where its sideband model holds; "
+                "lower the drive (--loop amplitude=V)")
+    return out
 
 
 def uncertainty_problems(sigma_bias: float, sigma_sf_ppm: float, target_bias: float,

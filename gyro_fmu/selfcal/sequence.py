@@ -300,6 +300,13 @@ def _calibrate(res: ResonatorParameters, cfg: SelfCalConfig, ff: FeedForward,
     result.record, result.pickoff_noise, result.cubic = cfg.record, noise_level, cfg.cubic
     result.misfit_ratio, problems = alarms.misfit_problems(
         result.rms_residual, noise_level, n, cfg.loops.amplitude)
+    if cfg.cubic:
+        x, modes = result.fit.x, {md.mode for md in data}
+        gamma = {k: v for k, v in {(1, "auto"): x[16], (1, "cross"): x[17],
+                                   (2, "auto"): x[18], (2, "cross"): x[19]}.items()
+                 if k[0] in modes}
+        problems += alarms.cubic_problems(gamma, {1: x[2], 2: x[3]}, {1: x[3], 2: x[2]},
+                                          result.fit.omega_ref)
     return result, problems
 
 
