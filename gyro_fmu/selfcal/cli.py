@@ -21,20 +21,28 @@ from .sequence import FeedForward, SelfCalConfig
 RESONATOR_NAMES = tuple(f.name for f in fields(ResonatorParameters))
 
 
-def _resonator(args: argparse.Namespace) -> ResonatorParameters:
-    changes: dict[str, float] = {}
-    for item in args.set or []:
+def name_values(items: list[str] | None, flag: str, known: tuple[str, ...],
+                example: str, what: str) -> dict[str, float]:
+    """{NAME: VALUE} from repeated `flag NAME=VALUE` options; each bad item is named."""
+    out: dict[str, float] = {}
+    for item in items or []:
         name, sep, value = item.partition("=")
         name = name.strip()
         if not sep:
-            raise ParameterError(f"--set {item!r} must read NAME=VALUE, e.g. Q_x=3e4")
-        if name not in RESONATOR_NAMES:
-            raise ParameterError(f"--set {item!r}: unknown resonator parameter {name!r}; "
-                                 f"known: {', '.join(RESONATOR_NAMES)}")
+            raise ParameterError(f"{flag} {item!r} must read NAME=VALUE, e.g. {example}")
+        if name not in known:
+            raise ParameterError(f"{flag} {item!r}: {name!r} is not {what}; "
+                                 f"known: {', '.join(known)}")
         try:
-            changes[name] = float(value)
+            out[name] = float(value)
         except ValueError:
-            raise ParameterError(f"--set {item!r}: {value!r} is not a number") from None
+            raise ParameterError(f"{flag} {item!r}: {value!r} is not a number") from None
+    return out
+
+
+def _resonator(args: argparse.Namespace) -> ResonatorParameters:
+    changes = name_values(args.set, "--set", RESONATOR_NAMES, "Q_x=3e4",
+                          "a resonator parameter")
     if args.noise is not None:
         changes["noise"] = args.noise
     res = replace(ResonatorParameters(), **changes)
@@ -49,21 +57,9 @@ def _resonator(args: argparse.Namespace) -> ResonatorParameters:
 def _loop_overrides(args: argparse.Namespace) -> dict[str, float]:
     from .design import USER_LOOPS
 
-    out: dict[str, float] = {}
-    for item in getattr(args, "loop", None) or []:
-        name, sep, value = item.partition("=")
-        name = name.strip()
-        if not sep:
-            raise ParameterError(f"--loop {item!r} must read NAME=VALUE, e.g. pll_bandwidth=30")
-        if name not in USER_LOOPS:
-            raise ParameterError(f"--loop {item!r}: {name!r} is not a loop setting the "
-                                 f"sequence leaves to you; known: {', '.join(USER_LOOPS)} "
-                                 "(sidebands: --index, --spacing, --sidebands)")
-        try:
-            out[name] = float(value)
-        except ValueError:
-            raise ParameterError(f"--loop {item!r}: {value!r} is not a number") from None
-    return out
+    return name_values(getattr(args, "loop", None), "--loop", USER_LOOPS,
+                       "pll_bandwidth=30", "a loop setting the sequence leaves to you "
+                       "(sidebands: --index, --spacing, --sidebands)")
 
 
 def _config(args: argparse.Namespace, res: ResonatorParameters) -> SelfCalConfig:
@@ -202,17 +198,9 @@ def _cmd_lot(args: argparse.Namespace) -> int:
 
     if args.n < 1:
         raise ParameterError(f"-n {args.n!r} must be at least 1")
-    model_fields = {f.name for f in fields(LotModel)} - {"seed"}
-    changes: dict[str, float] = {}
-    for item in args.model or []:
-        name, sep, value = item.partition("=")
-        if not sep or name.strip() not in model_fields:
-            raise ParameterError(f"--model {item!r} must read NAME=VALUE with NAME one of "
-                                 f"{', '.join(sorted(model_fields))}")
-        try:
-            changes[name.strip()] = float(value)
-        except ValueError:
-            raise ParameterError(f"--model {item!r}: {value!r} is not a number") from None
+    model_fields = tuple(sorted({f.name for f in fields(LotModel)} - {"seed"}))
+    changes = name_values(args.model, "--model", model_fields, "Q_max=1e5",
+                          "a tolerance-model field")
     res = run_lot(args.n, LotModel(seed=args.seed, **changes), args.scheduler, args.workers,
                   progress=not args.quiet)
     paths = write_lot(res, Path(args.out or "runs/selfcal_lot"), figures=not args.no_figures)
