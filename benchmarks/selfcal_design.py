@@ -44,7 +44,7 @@ def calibrate(res: ResonatorParameters, cfg: SelfCalConfig) -> dict:
         table = rate_table(res.without_noise(), ff, cfg)
         out.update(d_bias=r.bias - table.bias, sigma_bias=r.sigma_bias,
                    d_sf=(r.scale_factor / table.scale_factor - 1) * 1e6,
-                   sigma_sf=abs(r.sigma_scale_factor / r.scale_factor) * 1e6,
+                   sigma_sf=r.sigma_sf_ppm,
                    record=r.record, misfit=r.misfit_ratio, wall=r.wall_time)
     return out
 

@@ -83,7 +83,7 @@ def test_the_record_grows_until_the_targets_are_met() -> None:
     noisy = replace(TRUE, noise=1e-3)  # 4x the README's noise: 10 s leave SF 1-sigma ~40 ppm
     cfg = design(noisy, seed=3)
     result = self_calibrate(noisy, cfg)
-    sf_ppm = abs(result.sigma_scale_factor / result.scale_factor) * 1e6
+    sf_ppm = result.sigma_sf_ppm
     assert result.record > cfg.record and result.record % 5.0 == 0.0
     assert result.sigma_bias <= cfg.target_bias and sf_ppm <= cfg.target_sf_ppm
     # a record cap that cannot reach them: refused, the 1-sigma and the remedy named

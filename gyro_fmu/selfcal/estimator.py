@@ -115,20 +115,32 @@ def _dynamics(x: np.ndarray, omega: np.ndarray, omega_ref: float, kappa: float,
     return M
 
 
+def cubic_terms(x: np.ndarray, mode: int) -> tuple[float, float]:
+    """(auto, cross) cubic stiffness of mode 1 or 2's primary displacement, 1/s^2 (CUBIC)."""
+    auto, cross = x[I_CUBIC][0:2] if mode == 1 else x[I_CUBIC][2:4]
+    return float(auto), float(cross)
+
+
 def _cubic(x: np.ndarray, mode: int) -> np.ndarray:
     """Gamma (2 x 2): the cubic terms of the primary axis' displacement in each equation
     (auto on the diagonal, cross in the secondary's row) for mode 1 or 2."""
     g = np.zeros((2, 2))
     p, s = (0, 1) if mode == 1 else (1, 0)
-    g[p, p], g[s, p] = (x[16], x[17]) if mode == 1 else (x[18], x[19])
+    g[p, p], g[s, p] = cubic_terms(x, mode)
     return g
+
+
+def _sense(v: np.ndarray, x: np.ndarray, rho: complex) -> np.ndarray:
+    """C then diag(1, rho) on axis 1 of v (phasors n x 2, or transfers n x 2 x 2)."""
+    v = v + x[I_BETA] * v[:, ::-1]  # C v: each sensed axis picks up beta of the other
+    v[:, 1] *= rho
+    return v
 
 
 def _read(q: np.ndarray, D: np.ndarray, omega: np.ndarray, x: np.ndarray, rho: complex,
           h: float, fit_feedthrough: bool) -> np.ndarray:
-    """Pick-off phasors (n x 2) from the model displacements q (n x ...): C, rho, E_res."""
-    q = q + x[I_BETA] * q[:, ::-1]  # C q: each sensed axis picks up beta of the other
-    q[:, 1] *= rho
+    """Pick-off phasors (n x 2) from the model displacements q (n x 2): C, rho, E_res."""
+    q = _sense(q, x, rho)
     if fit_feedthrough:
         E = _complex4(x[I_FEEDTHROUGH]) * 1e-3
         q = q + np.einsum("ij,nj->ni", E, D) * np.exp(-1j * omega * h)[:, None]
@@ -146,8 +158,7 @@ def transfer(x: np.ndarray, omega: np.ndarray, omega_ref: float, rho: complex, k
         M = M + carrier_cubic[None]
     B = _complex4(x[7:15]) * (2 * omega_ref)
     G = np.linalg.solve(M, np.broadcast_to(B, M.shape)) * zoh(omega, h)[:, None, None]
-    G = G + x[I_BETA] * G[:, ::-1, :]  # C G: each sensed axis picks up beta of the other
-    G[:, 1, :] *= rho
+    G = _sense(G, x, rho)
     if fit_feedthrough:
         E = _complex4(x[I_FEEDTHROUGH]) * 1e-3
         G += E[None] * np.exp(-1j * omega * h)[:, None, None]

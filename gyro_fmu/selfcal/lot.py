@@ -133,7 +133,7 @@ def calibrate_one(i: int, drawn: dict, seed: int) -> dict:
             table = rate_table(instrument.without_noise(), ff, cfg)
             d_bias = result.bias - table.bias
             d_sf = (result.scale_factor / table.scale_factor - 1) * 1e6
-            s_sf = abs(result.sigma_scale_factor / result.scale_factor) * 1e6
+            s_sf = result.sigma_sf_ppm
             within = abs(d_bias) < BIAS_TOLERANCE and abs(d_sf) < SF_TOLERANCE_PPM
             if status == "good" and not within:
                 status = "WRONG"

@@ -28,6 +28,7 @@ from .estimator import (
     SidebandFit,
     bias_and_scale_factor,
     bias_and_scale_factor_sigma,
+    cubic_terms,
     fit_sidebands,
 )
 from .inprocess import DEFAULT_STEP, CarrierRecord, CarrierSimulation
@@ -203,6 +204,11 @@ class SelfCalResult:
     pickoff_noise: float = math.nan  #: V per sample, estimated from the records
     cubic: bool = False  #: the cubic terms of eqs. 24-27 were fitted
 
+    @property
+    def sigma_sf_ppm(self) -> float:
+        """1-sigma of the scale factor relative to it, ppm."""
+        return abs(self.sigma_scale_factor / self.scale_factor) * 1e6
+
     def summary(self) -> dict:
         return {
             "record_s": self.record, "misfit_ratio": self.misfit_ratio,
@@ -239,9 +245,9 @@ def self_calibrate(res: ResonatorParameters, cfg: SelfCalConfig | None = None) -
         used = replace(used, record=record)
         result, problems = _calibrate(res, used, ff, start)
     if not problems:
-        problems = alarms.uncertainty_problems(
-            result.sigma_bias, abs(result.sigma_scale_factor / result.scale_factor) * 1e6,
-            cfg.target_bias, cfg.target_sf_ppm, result.record)
+        problems = alarms.uncertainty_problems(result.sigma_bias, result.sigma_sf_ppm,
+                                               cfg.target_bias, cfg.target_sf_ppm,
+                                               result.record)
     if problems:
         raise alarms.CalibrationRefusedError(problems, result)
     return result
@@ -253,8 +259,7 @@ def choose_record(result: SelfCalResult, cfg: SelfCalConfig) -> float:
     record_units, at most cfg.max_record. self_calibrate asks again after each longer
     record (at most 3 times): the fall is not exactly 1 / sqrt."""
     need = max((result.sigma_bias / cfg.target_bias) ** 2,
-               (abs(result.sigma_scale_factor / result.scale_factor) * 1e6
-                / cfg.target_sf_ppm) ** 2)
+               (result.sigma_sf_ppm / cfg.target_sf_ppm) ** 2)
     if not need > 1.0:
         return cfg.record
     unit = record_unit(cfg.sideband_spacing)
@@ -292,33 +297,33 @@ def _calibrate(res: ResonatorParameters, cfg: SelfCalConfig, ff: FeedForward,
     n = round(cfg.record / cfg.step)
     try:
         with np.errstate(all="raise"):
-            result = estimate(data, ff, cfg, start, cubic=cfg.cubic)
+            result = estimate(data, ff, cfg, start)
     except (np.linalg.LinAlgError, ValueError, ZeroDivisionError, FloatingPointError) as exc:
         return None, [f"the sideband fit failed numerically ({type(exc).__name__}: {exc}): "
                       "the records do not determine the model; check the loops lock "
                       "(--loop) and raise the sideband index (--index)"]
-    result.record, result.pickoff_noise, result.cubic = cfg.record, noise_level, cfg.cubic
+    result.pickoff_noise = noise_level
     result.misfit_ratio, problems = alarms.misfit_problems(
         result.rms_residual, noise_level, n, cfg.loops.amplitude)
     if cfg.cubic:
-        x, modes = result.fit.x, {md.mode for md in data}
-        gamma = {k: v for k, v in {(1, "auto"): x[16], (1, "cross"): x[17],
-                                   (2, "auto"): x[18], (2, "cross"): x[19]}.items()
-                 if k[0] in modes}
-        problems += alarms.cubic_problems(gamma, {1: x[2], 2: x[3]}, {1: x[3], 2: x[2]},
+        x = result.fit.x
+        gamma = {(md.mode, kind): g for md in data if md.mode in (1, 2)
+                 for kind, g in zip(("auto", "cross"), cubic_terms(x, md.mode), strict=True)}
+        dxx, dyy = x[2], x[3]  # CORE: the dampings of each mode
+        problems += alarms.cubic_problems(gamma, {1: dxx, 2: dyy}, {1: dyy, 2: dxx},
                                           result.fit.omega_ref)
     return result, problems
 
 
 def estimate(data: list[ModeData], ff: FeedForward, cfg: SelfCalConfig,
-             start: float | None = None, cubic: bool = False) -> SelfCalResult:
-    """Step 4: fit eq. 19 (with the cubic terms of eqs. 24-27 if asked) and compute
+             start: float | None = None) -> SelfCalResult:
+    """Step 4: fit eq. 19 (with the cubic terms of eqs. 24-27 if cfg.cubic) and compute
     bias and scale factor of the mode-1 read-out."""
     lo = cfg.loops
 
     def fit_with(rho: complex) -> SidebandFit:
         return fit_sidebands(data, rho, cfg.kappa, cfg.step, lo.plant_gain, lo.q_nominal,
-                             cfg.fit_feedthrough, cfg.fixed_rate, cubic)
+                             cfg.fit_feedthrough, cfg.fixed_rate, cfg.cubic)
 
     fit = fit_with(ff.rho)
     m1 = next((d for d in data if d.mode == 1), data[0])
@@ -333,5 +338,6 @@ def estimate(data: list[ModeData], ff: FeedForward, cfg: SelfCalConfig,
     wall = time.perf_counter() - start if start is not None else float("nan")
     return SelfCalResult(bias, sf, math.hypot(s_bias, s_bias_rho), math.hypot(s_sf, s_sf_rho),
                          float(s_bias_rho), float(s_sf_rho), fit.physical(), ff.rho, ff.E,
-                         omega_r, amp, fit.rms_residual, wall, fit, data)
+                         omega_r, amp, fit.rms_residual, wall, fit, data,
+                         record=cfg.record, cubic=cfg.cubic)
 
