@@ -68,6 +68,17 @@ def _imported_units(path: Path) -> set[str]:
     return units
 
 
+def test_the_wheel_ships_every_subpackage():
+    """pyproject.toml lists the packages by hand: a subpackage left out is missing from
+    the wheel (gyro_fmu.studies was: `gyro-fmu sweep` failed when installed)."""
+    import tomllib
+
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+                 ["packages"])
+    found = {"gyro_fmu"} | {f"gyro_fmu.{p.parent.name}" for p in PACKAGE.glob("*/__init__.py")}
+    assert found | {"gyro_fmu.fmu_src"} == listed
+
+
 def test_the_ranks_name_every_subpackage():
     found = {p.name for p in PACKAGE.iterdir() if (p / "__init__.py").is_file()}
     found |= {p.stem for p in PACKAGE.glob("*.py") if p.name != "__init__.py"} - {"fmi"}
