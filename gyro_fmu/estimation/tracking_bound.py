@@ -1,0 +1,503 @@
+"""Posterior (Bayesian) Cramér-Rao bound for tracking a time-varying Omega_z.
+
+The batch bound of identify.crb_at holds for a constant rate only. This module bounds the
+mean-square error of ANY estimator of Omega_z(t_k) (the observer's output at t_k, which
+has used the samples z_0 .. z_{k-1}) when Omega_z follows a given model:
+
+- a finite linear model with unknown Gaussian coefficients: a constant (constant_rate),
+  or a sine of known frequency with unknown amplitude, phase and offset (sine_rate,
+  Omega = c + a cos w t + b sin w t): the harmonic-oscillator state with zero process
+  noise, for which the PCRB is the ordinary (prior-regularised) CRB of (c, a, b) mapped
+  to Omega(t);
+- a Gaussian random process (gauss_markov_rate: first-order Gauss-Markov of a given
+  bandwidth; integrated_random_walk_rate), sampled at knots every knot_step steps and
+  held between them.
+
+The 7 parameters are unknown constants with the observer's own Gaussian prior
+(ObserverTuning sigma0_k_rel, sigma0_d_rel, sigma0_m_rel, in physical units of the
+observer's initial guess, centred on the truth); the plant starts from rest with the
+observer's prior on [x, vx, y, vy]; the positions (or velocities) are measured every h
+with white Gaussian noise of the given absolute std per channel.
+
+Formulation (Tichavský, Muravchik & Nehorai, IEEE Trans. SP 46(5), 1998, "TMN"). The
+PCRB of TMN is the Van Trees bound E[(x^ - x)(x^ - x)^T] >= J^-1 (TMN eq. 1-2) for the
+Bayesian information J of the joint density of states and measurements; TMN eq. 21
+(J_{k+1} = D22 - D21 (J_k + D11)^-1 D12, D-terms eqs. 22-24) computes its last block
+recursively. That recursion needs a density p(x_{k+1} | x_k): with the plant state and
+the parameters propagated without process noise (Q singular) it does not exist, and
+regularising Q = eps I does not help when the Jacobians are random (the D-terms then
+give J ~ Var(F) / eps: a bound that vanishes as eps -> 0). So the Van Trees bound is
+applied to the variables that do have a density,
+
+    theta = [s_0 (the free components), p (7), beta (the rate model's coefficients or
+             knot values)],   prior N(theta_true, J_prior^-1),
+
+with every state a deterministic function of theta: s_{k+1} = f(s_k, p, Omega_k; u_k)
+(GyroStateObserver.held_step: the exact held-input step and its Jacobians Phi, S) and
+Omega_k = mean_k + L_k beta (linear). The Bayesian information is
+
+    J_k = J_prior + E_beta[ sum_{j<k} G_j^T R^-1 G_j ],   G_j = H ds_j/dtheta,
+
+(the D-term of the measurements, TMN eq. 24's E[grad h R^-1 grad h^T], averaged over
+Monte Carlo draws of the rate trajectory as TMN do for random Jacobians) and the bound on
+Omega_k = mean_k + L_k beta is L_k J_k^-1 L_k^T (exact for a linear function of theta).
+For a deterministic rate model (constant, sine) the Jacobians are evaluated at the truth
+and are not random: J_k^-1 is then the covariance of the Kalman filter of the linearised
+(about the truth) system, i.e. the covariance-form Riccati, which is the PCRB for
+additive Gaussian noise and non-random Jacobians (TMN section on linear systems). The
+Jacobians with respect to s_0 and p are always evaluated at the truth (the observer's
+priors are narrow; averaging over them as well would bound a different, mixed problem).
+
+Units: Omega rad/s, k's 1/s^2, d's 1/s, m kg, time s. docs/tracking-bound.md explains
+and measures it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+
+from ..model.drive import TwoToneDrive
+from ..model.measurement import MeasuredPair
+from ..model.parameters import PARAMETER_NAMES, GyroParameters
+from .fisher import RTOL
+from .observer import PRIOR_FRACTION, GyroStateObserver, ObserverTuning
+
+__all__ = [
+    "RateModel",
+    "TrackingBound",
+    "bayesian_information",
+    "constant_rate",
+    "gauss_markov_rate",
+    "integrated_random_walk_rate",
+    "markov_chain_information",
+    "rate_model_for",
+    "sine_rate",
+    "tracking_bound",
+    "tracking_bound_for_scenario",
+]
+
+#: Measurements accumulated per BLAS update of the information matrix.
+_CHUNK = 256
+
+
+# --------------------------------------------------------------------------- rate models
+
+
+@dataclass(frozen=True)
+class RateModel:
+    """Omega_k = mean[k] + coef[k] . beta[col[k] : col[k] + w], held over [t_k, t_k + h].
+
+    beta ~ N(0, info^-1): info is the prior information of the coefficients (may be
+    singular: no prior along a direction; all zeros is the vanishing prior). For a random
+    process (random=True) draw() gives trajectories beta of the prior, along which the
+    Jacobians are evaluated (Monte Carlo of the D-terms); otherwise beta = 0: the
+    Jacobians along mean, the true rate.
+    """
+
+    name: str
+    mean: np.ndarray  #: (K+1,) rad/s at t_0 .. t_K
+    col: np.ndarray  #: (K+1,) int: first column of row k
+    coef: np.ndarray  #: (K+1, w)
+    info: np.ndarray  #: (n_beta, n_beta) prior information
+    random: bool = False
+    draw: Callable[[np.random.Generator], np.ndarray] | None = field(default=None, repr=False)
+
+    @property
+    def n_beta(self) -> int:
+        return self.info.shape[0]
+
+    def row(self, k: int) -> np.ndarray:
+        """dOmega_k / dbeta as a dense vector."""
+        out = np.zeros(self.n_beta)
+        c = int(self.col[k])
+        out[c:c + self.coef.shape[1]] = self.coef[k]
+        return out
+
+    def trajectory(self, beta: np.ndarray | None = None) -> np.ndarray:
+        """Omega_0 .. Omega_K for coefficients beta (None: the mean)."""
+        if beta is None:
+            return self.mean.copy()
+        w = self.coef.shape[1]
+        idx = self.col[:, None] + np.arange(w)[None, :]
+        return self.mean + np.sum(self.coef * beta[idx], axis=1)
+
+
+def _prior_info(sigmas: Sequence[float | None]) -> np.ndarray:
+    """Diagonal information from 1-sigmas; None or inf: no prior."""
+    return np.diag([0.0 if s is None or not math.isfinite(s) else 1.0 / s**2
+                    for s in sigmas])
+
+
+def constant_rate(Omega_z: float, h: float, n_steps: int,
+                  sigma0: float | None = 2.0) -> RateModel:
+    """A constant Omega_z with prior N(Omega_z, sigma0^2) (None: no prior, as crb_at)."""
+    K = n_steps + 1
+    return RateModel("constant", np.full(K, float(Omega_z)), np.zeros(K, int),
+                     np.ones((K, 1)), _prior_info([sigma0]))
+
+
+def sine_rate(h: float, n_steps: int, frequency: float, amplitude: float,
+              offset: float = 0.0, phase: float = 0.0, sigma0: float | None = 2.0,
+              fit_offset: bool = True) -> RateModel:
+    """Omega = offset + amplitude sin(2 pi frequency t + phase), frequency known.
+
+    Unknown coefficients beta = [c, a, b] of c + a cos(w t) + b sin(w t) (amplitude and
+    phase in linear form; c only with fit_offset), each with prior N(truth, sigma0^2).
+    The harmonic oscillator with zero process noise: its PCRB is the prior-regularised
+    CRB of beta mapped to Omega(t) (no Monte Carlo: the Jacobians are at the truth).
+    """
+    t = np.arange(n_steps + 1) * h
+    w = 2.0 * math.pi * frequency
+    cols = [np.cos(w * t), np.sin(w * t)]
+    if fit_offset:
+        cols.insert(0, np.ones_like(t))
+    coef = np.column_stack(cols)
+    mean = offset + amplitude * np.sin(w * t + phase)
+    return RateModel(f"sine {frequency:g} Hz", mean, np.zeros(t.size, int), coef,
+                     _prior_info([sigma0] * coef.shape[1]))
+
+
+def markov_chain_information(F: np.ndarray, Q: np.ndarray, P0: np.ndarray,
+                             n: int) -> np.ndarray:
+    """Information of r_0 .. r_{n-1} of r_{i+1} = F r_i + w_i, w_i ~ N(0, Q), r_0 ~ N(0, P0)
+    (block tridiagonal; Q and P0 must be nonsingular)."""
+    d = F.shape[0]
+    Qi = np.linalg.inv(Q)
+    J = np.zeros((n * d, n * d))
+    J[:d, :d] = np.linalg.inv(P0)
+    FtQi = F.T @ Qi
+    for i in range(n - 1):
+        a, b = slice(i * d, (i + 1) * d), slice((i + 1) * d, (i + 2) * d)
+        J[a, a] += FtQi @ F
+        J[a, b] -= FtQi
+        J[b, a] -= FtQi.T
+        J[b, b] += Qi
+    return J
+
+
+def _chain_drawer(F: np.ndarray, Q: np.ndarray, P0: np.ndarray, n: int):
+    LQ, L0 = np.linalg.cholesky(Q), np.linalg.cholesky(P0)
+    d = F.shape[0]
+
+    def draw(rng: np.random.Generator) -> np.ndarray:
+        r = np.empty((n, d))
+        r[0] = L0 @ rng.standard_normal(d)
+        for i in range(n - 1):
+            r[i + 1] = F @ r[i] + LQ @ rng.standard_normal(d)
+        return r.ravel()
+
+    return draw
+
+
+def _knots(n_steps: int, knot_step: int) -> tuple[int, np.ndarray]:
+    if not (isinstance(knot_step, int) and knot_step >= 1):
+        raise ValueError(f"knot_step={knot_step!r} must be an integer >= 1")
+    K = n_steps + 1
+    return -(-K // knot_step), np.arange(K) // knot_step
+
+
+def gauss_markov_rate(h: float, n_steps: int, std: float, bandwidth: float,
+                      mean: float = 0.0, knot_step: int = 20,
+                      sigma0: float | None = None) -> RateModel:
+    """Omega = mean + first-order Gauss-Markov (Ornstein-Uhlenbeck) process.
+
+    Stationary 1-sigma std (rad/s), bandwidth (Hz): autocorrelation
+    exp(-2 pi bandwidth |tau|). Sampled every knot_step communication steps and held in
+    between (the process this bounds); the initial knot has 1-sigma sigma0 (None: std,
+    stationary).
+    """
+    n, knot = _knots(n_steps, knot_step)
+    dt = knot_step * h
+    rho = math.exp(-2.0 * math.pi * bandwidth * dt)
+    q = std**2 * (1.0 - rho**2)
+    s0 = std if sigma0 is None else sigma0
+    F, Q, P0 = np.array([[rho]]), np.array([[q]]), np.array([[s0**2]])
+    K = n_steps + 1
+    return RateModel(f"Gauss-Markov {std:g} rad/s {bandwidth:g} Hz", np.full(K, float(mean)),
+                     knot, np.ones((K, 1)), markov_chain_information(F, Q, P0, n), True,
+                     _chain_drawer(F, Q, P0, n))
+
+
+def integrated_random_walk_rate(h: float, n_steps: int, q: float, sigma0_Omega: float,
+                                sigma0_rate: float, mean: float = 0.0,
+                                knot_step: int = 20) -> RateModel:
+    """Omega = mean + integrated random walk: dOmega/dt is a Wiener process of intensity
+    q (rad^2/s^3), Omega(0) ~ N(0, sigma0_Omega^2), dOmega/dt(0) ~ N(0, sigma0_rate^2).
+
+    Sampled every knot_step steps (state [Omega, dOmega/dt dt] per knot) and held.
+    """
+    n, knot = _knots(n_steps, knot_step)
+    dt = knot_step * h
+    F = np.array([[1.0, 1.0], [0.0, 1.0]])  # state [Omega, dt dOmega/dt]
+    Q = q * dt**3 * np.array([[1.0 / 3.0, 0.5], [0.5, 1.0]])
+    P0 = np.diag([sigma0_Omega**2, (sigma0_rate * dt) ** 2])
+    K = n_steps + 1
+    return RateModel(f"integrated random walk q={q:g}", np.full(K, float(mean)), 2 * knot,
+                     np.ones((K, 1)), markov_chain_information(F, Q, P0, n), True,
+                     _chain_drawer(F, Q, P0, n))
+
+
+# --------------------------------------------------------------------------- core
+
+
+#: step(k, s, Omega) -> (s(t_k+1), ds'/ds (n_s x n_s), ds'/dp (n_s x n_p), ds'/dOmega (n_s,))
+StepFunction = Callable[[int, np.ndarray, float], tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                        np.ndarray]]
+
+
+def bayesian_information(step: StepFunction, s0: np.ndarray, n_p: int, rate: RateModel,
+                         H: np.ndarray, noise_std: Sequence[float], eval_steps: Sequence[int],
+                         s0_free: np.ndarray | None = None, n_draws: int = 8,
+                         seed: int = 0, filtered: bool = False) -> np.ndarray:
+    """Measurement part of the Bayesian information at each of eval_steps.
+
+    Unknowns theta = [s_0[s0_free], p (n_p), beta (rate.n_beta)]; s_{k+1} = step(k, s_k,
+    Omega_k) from s_0 at the truth, z_k = H s_k + v_k, v_k ~ N(0, diag(noise_std^2)).
+    Returns M (len(eval_steps), n, n) with M[e] = E[sum_j G_j^T R^-1 G_j] over the
+    measurements j < eval_steps[e] (j <= with filtered), averaged over n_draws Monte Carlo
+    trajectories of a random rate (one pass along rate.mean otherwise). The steps are
+    evaluated in increasing order; the last one sets the horizon.
+    """
+    s0 = np.asarray(s0, float)
+    ns = s0.size
+    free = np.ones(ns, bool) if s0_free is None else np.asarray(s0_free, bool)
+    n_a = int(free.sum()) + n_p
+    n = n_a + rate.n_beta
+    ev = [int(k) for k in eval_steps]
+    if sorted(ev) != ev or not ev or ev[0] < 0 or ev[-1] > rate.mean.size - 1:
+        raise ValueError(f"eval_steps must increase within 0 .. {rate.mean.size - 1}")
+    Hw = np.asarray(H, float) / np.asarray(noise_std, float)[:, None]
+    w = rate.coef.shape[1]
+    draws = max(1, int(n_draws)) if rate.random else 1
+    rng = np.random.default_rng(seed)
+    out = np.zeros((len(ev), n, n))
+    last = ev[-1] + (1 if filtered else 0)
+    for _ in range(draws):
+        beta = rate.draw(rng) if rate.random and rate.draw is not None else None
+        omega = rate.trajectory(beta)
+        Sig = np.zeros((ns, n))
+        Sig[np.flatnonzero(free), np.arange(int(free.sum()))] = 1.0
+        ncol = n_a
+        M = np.zeros((n, n))
+        rows: list[np.ndarray] = []
+        s = s0.copy()
+        e = 0
+        for k in range(last):
+            # measurements j < k are in M (+ rows) here; z_k is added below
+            while e < len(ev) and ev[e] + (1 if filtered else 0) == k:
+                _flush(M, rows, ncol)
+                out[e] += M
+                e += 1
+            rows.append(Hw @ Sig[:, :ncol] if ncol < n else Hw @ Sig)
+            if len(rows) * Hw.shape[0] >= _CHUNK:
+                _flush(M, rows, ncol)
+            s1, Phi, Sp, Som = step(k, s, float(omega[k]))
+            c0 = n_a + int(rate.col[k])
+            ncol = max(ncol, c0 + w)
+            Sig[:, :ncol] = Phi @ Sig[:, :ncol]
+            Sig[:, n_a - n_p:n_a] += Sp
+            Sig[:, c0:c0 + w] += np.outer(Som, rate.coef[k])
+            s = s1
+        while e < len(ev):
+            _flush(M, rows, ncol)
+            out[e] += M
+            e += 1
+    return out / draws
+
+
+def _flush(M: np.ndarray, rows: list[np.ndarray], ncol: int) -> None:
+    if not rows:
+        return
+    m = max(r.shape[1] for r in rows)
+    B = np.zeros((sum(r.shape[0] for r in rows), m))
+    i = 0
+    for r in rows:
+        B[i:i + r.shape[0], :r.shape[1]] = r
+        i += r.shape[0]
+    M[:m, :m] += B.T @ B
+    rows.clear()
+
+
+def _inverse_parts(J: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    """diag(T J^-1 T^T) for the rows T of targets; inf along unidentifiable directions
+    (the rank rule of fisher: eigenvalues of the equilibrated J below RTOL^2 x largest)."""
+    d = np.sqrt(np.diag(J))
+    d = np.where(d > 0.0, d, 1.0)
+    Jn = J / d[:, None] / d[None, :]
+    Tn = targets / d[None, :]
+    try:
+        c = sla.cho_factor(Jn, lower=True, check_finite=False)
+        dl = np.abs(np.diag(c[0]))
+        if dl.min() > RTOL * dl.max():  # well away from the rank rule's threshold
+            X = sla.cho_solve(c, Tn.T, check_finite=False)
+            var = np.einsum("ij,ji->i", Tn, X)
+            if np.all(np.isfinite(var)) and np.all(var >= 0.0):
+                return var
+    except (np.linalg.LinAlgError, ValueError):
+        pass
+    ww, V = np.linalg.eigh(Jn)
+    keep = ww > RTOL**2 * ww[-1]
+    proj = Tn @ V
+    var = np.sum(proj[:, keep] ** 2 / ww[keep], axis=1)
+    null = np.sum(proj[:, ~keep] ** 2, axis=1) > 1e-12 * np.sum(proj**2, axis=1)
+    return np.where(null, math.inf, var)
+
+
+# --------------------------------------------------------------------------- the gyro
+
+
+@dataclass(frozen=True)
+class TrackingBound:
+    """The bound at the evaluation times (all 1-sigmas: sqrt of the bound's diagonal)."""
+
+    time: np.ndarray  #: s, t_k of each evaluation
+    steps: np.ndarray  #: k of each evaluation (the bound uses z_0 .. z_{k-1})
+    Omega_true: np.ndarray  #: rad/s, the rate model's mean at t_k (the truth if not random)
+    sigma_Omega: np.ndarray  #: rad/s, bound on the RMS error of any estimate of Omega_z(t_k)
+    sigma_params: dict[str, np.ndarray]  #: PARAMETER_NAMES -> 1-sigma (SI) at each time
+    rate: str  #: the rate model's name
+    n_draws: int  #: Monte Carlo trajectories behind the D-terms (1: deterministic model)
+    noise_std: tuple[float, float]
+
+    def rms_sigma(self, t_from: float, t_to: float) -> float:
+        """sqrt(mean sigma_Omega^2) over t_from <= t <= t_to: the bound on an RMS error."""
+        sel = (self.time >= t_from - 1e-12) & (self.time <= t_to + 1e-12)
+        return float(np.sqrt(np.mean(self.sigma_Omega[sel] ** 2)))
+
+
+def _prior_sigmas(initial: GyroParameters, tuning: ObserverTuning) -> np.ndarray:
+    """The observer's prior 1-sigma of theta = [kxx, kyy, kxy, dxx, dyy, dxy, 1/m] in SI
+    (as GyroStateObserver.__init__ sets it from the guess `initial`)."""
+    ref = GyroStateObserver(initial, 0.0, 1, tuning)
+    p_sig = np.sqrt(np.diag(ref.P)[4:11])
+    return p_sig * ref.scale
+
+
+def _state_prior(truth: GyroParameters, initial: GyroParameters, tuning: ObserverTuning,
+                 u1: float) -> np.ndarray:
+    """1-sigma of s_0 = [x, vx, y, vy]: the tuning's, or the observer's auto prior
+    (PRIOR_FRACTION of the guessed static deflection of the first drive sample u1)."""
+    wx, wy = math.sqrt(initial.kxx), math.sqrt(initial.kyy)
+    if tuning.sigma0_position > 0.0 and tuning.sigma0_velocity > 0.0:
+        sp, sv = tuning.sigma0_position, tuning.sigma0_velocity
+        return np.array([sp, sv, sp, sv])
+    size = PRIOR_FRACTION * abs(u1) / initial.m / initial.kxx
+    return np.array([size, size * wx, size, size * wy])
+
+
+def tracking_bound(
+    params: GyroParameters,
+    drive: TwoToneDrive,
+    rate: RateModel,
+    noise_std: Sequence[float],
+    h: float,
+    n_steps: int,
+    tuning: ObserverTuning | None = None,
+    initial: GyroParameters | None = None,
+    measured_pair: int = 1,
+    eval_every: int = 200,
+    t_eval: Sequence[float] | None = None,
+    n_draws: int = 8,
+    seed: int = 0,
+    param_prior: bool = True,
+    state_prior: bool = True,
+    filtered: bool = False,
+) -> TrackingBound:
+    """PCRB of Omega_z(t_k) and of the 7 parameters for the gyro `params` (the truth).
+
+    The plant starts from rest, driven by ux = drive.ux(k h), uy = 0 (held over each
+    step, as GyroPlantModel steps); rate gives Omega_k (built for the same h and
+    n_steps); noise_std = absolute std of the two measured signals (m, or m/s for
+    measured_pair 2), e.g. scenario.absolute_noise. Priors: the observer's (tuning,
+    default ObserverTuning()) in physical units of its guess `initial` (default: the
+    truth), centred on the truth; param_prior=False: no prior on the parameters;
+    state_prior=False: s_0 = 0 known (what crb_at assumes). Evaluated every eval_every
+    steps (or at the steps nearest t_eval), the bound at t_k from z_0 .. z_{k-1} (what the
+    observer's output at t_k has used; filtered: z_0 .. z_k).
+    """
+    tun = ObserverTuning() if tuning is None else tuning
+    guess = params if initial is None else initial
+    pair = MeasuredPair.of(measured_pair)
+    if rate.mean.size != n_steps + 1:
+        raise ValueError(f"rate model has {rate.mean.size} samples; n_steps + 1 = "
+                         f"{n_steps + 1} expected (build it with the same h, n_steps)")
+    obs = GyroStateObserver(params, 0.0, int(pair), tun)  # p-scaling at the truth
+    theta = obs.theta0.copy()
+    u = np.array([drive.ux(k * h) for k in range(n_steps + 1)])
+
+    def step(k: int, s: np.ndarray, om: float):
+        s1, Phi, S = obs.held_step(s, u[k], 0.0, h, theta=theta, Omega_z=om)
+        return s1, Phi, S[:, :7], S[:, 7]
+
+    sig_s0 = _state_prior(params, guess, tun, next((v for v in u if v != 0.0), 0.0))
+    free = (sig_s0 > 0.0) if state_prior else np.zeros(4, bool)
+    if t_eval is not None:
+        steps = sorted({round(t / h) for t in t_eval})
+    else:
+        steps = list(range(eval_every, n_steps + 1, eval_every))
+    H = np.zeros((2, 4))
+    H[0, pair.state_rows[0]] = H[1, pair.state_rows[1]] = 1.0
+    M = bayesian_information(step, np.zeros(4), 7, rate, H, noise_std, steps, free,
+                             n_draws, seed, filtered)
+    nf = int(free.sum())
+    n_a = nf + 7
+    J0 = np.zeros(M.shape[1:])
+    J0[:nf, :nf] = np.diag(1.0 / sig_s0[free] ** 2)
+    if param_prior:
+        J0[nf:n_a, nf:n_a] = np.diag((obs.scale / _prior_sigmas(guess, tun)) ** 2)
+    J0[n_a:, n_a:] = rate.info
+    sig_om = np.empty(len(steps))
+    sig_par = np.empty((len(steps), 7))
+    targets = np.zeros((8, M.shape[1]))
+    targets[1:, nf:n_a] = np.eye(7)
+    for e, k in enumerate(steps):
+        targets[0, n_a:] = rate.row(k)
+        var = _inverse_parts(J0 + M[e], targets)
+        sig_om[e] = math.sqrt(var[0])
+        sig_par[e] = np.sqrt(var[1:]) * obs.scale
+    sig_par[:, 6] *= params.m**2  # delta method, m = 1/b (as the observer reports it)
+    return TrackingBound(
+        time=np.array(steps) * h, steps=np.array(steps), Omega_true=rate.mean[steps],
+        sigma_Omega=sig_om,
+        sigma_params={n: sig_par[:, i] for i, n in enumerate(PARAMETER_NAMES)},
+        rate=rate.name, n_draws=max(1, n_draws) if rate.random else 1,
+        noise_std=(float(noise_std[0]), float(noise_std[1])))
+
+
+def rate_model_for(sc, sigma0: float | None = None) -> RateModel:
+    """The deterministic rate model of a Scenario's RateProfile: constant -> constant_rate;
+    sine -> sine_rate (offset, amplitude and phase unknown, frequency known), prior 1-sigma
+    sigma0 (None: ObserverTuning().sigma0_Omega) on each coefficient."""
+    from ..model.rate import RateKind
+
+    s0 = ObserverTuning().sigma0_Omega if sigma0 is None else sigma0
+    r = sc.rate
+    if r.kind is RateKind.constant:
+        return constant_rate(r.offset, sc.step, sc.n_steps, s0)
+    if r.kind is RateKind.sine and r.t_start <= 0.0:
+        return sine_rate(sc.step, sc.n_steps, r.frequency, r.amplitude, r.offset,
+                         -2.0 * math.pi * r.frequency * r.t_start, s0)
+    raise ValueError(f"no rate model for {r.describe()}: give a RateModel to tracking_bound")
+
+
+def tracking_bound_for_scenario(sc, tuning: ObserverTuning | None = None,
+                                rate: RateModel | None = None, **kwargs) -> TrackingBound:
+    """tracking_bound for a gyro_fmu.system.scenario.Scenario: its gyro, drive, step, stop
+    time, measured pair and absolute noise (absolute_noise), the observer's guess as the
+    scale of the parameter prior, the prior on Omega from tuning.sigma0_Omega."""
+    from ..system.scenario import absolute_noise
+
+    tun = ObserverTuning() if tuning is None else tuning
+    noise = absolute_noise(sc)
+    z = MeasuredPair.of(sc.measured_pair).plant_outputs
+    std = (getattr(noise, z[0]), getattr(noise, z[1]))
+    if not (std[0] > 0.0 and std[1] > 0.0):
+        raise ValueError("the bound needs measurement noise: give the scenario noise > 0")
+    model = rate if rate is not None else rate_model_for(sc, tun.sigma0_Omega)
+    return tracking_bound(sc.params, sc.the_drive, model, std, sc.step, sc.n_steps, tun,
+                          GyroParameters(**sc.initial_guess), sc.measured_pair, **kwargs)
