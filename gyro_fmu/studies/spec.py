@@ -405,7 +405,7 @@ def allan_study(rec: Record, cfg: SpecConfig) -> dict:
         "startup_time_s": t_on,
         "startup_band_rad_s": band,
         "startup_window_s": window,
-        "settled_by_s": t_on - window,
+        "settled_by_s": max(0.0, t_on - window),
         "taus_s": taus.tolist(),
         "adev_rad_s": adev.tolist(),
         "adev_rel_sigma": adev_uncertainty(n, h, taus).tolist(),
@@ -632,10 +632,14 @@ def warning_summary(what: str, rec: Record) -> list[str]:
 
 def startup_trace(rec: Record, window: float, h: float, points: int = 400) -> dict:
     """The trailing-window mean of the error at log-spaced times (for the figure)."""
-    m = max(1, round(window / h))
-    avg = moving_mean(rec.error, m)
-    j = np.unique(np.geomspace(1, len(avg), points).astype(int) - 1)
-    return {"t_s": rec.t[j + m - 1].tolist(), "error_rad_s": avg[j].tolist()}
+    out = {}
+    for key, w in (("", window), ("_1ms", 1e-3)):
+        m = max(1, round(w / h))
+        avg = moving_mean(rec.error, m)
+        j = np.unique(np.geomspace(1, len(avg), points).astype(int) - 1)
+        out[f"t_s{key}"] = rec.t[j + m - 1].tolist()
+        out[f"error_rad_s{key}"] = avg[j].tolist()
+    return out
 
 
 def rate_model_text(tun: ObserverTuning) -> str:

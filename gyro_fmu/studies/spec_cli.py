@@ -162,7 +162,8 @@ def spec_figure(s: dict, path: Path) -> Path:
     p.set_xlabel("rate frequency (Hz)")
     p.set_ylabel(r"gain $|\hat\Omega/\Omega|$ (dB)")
     q = p.twinx()
-    q.semilogx(fr, [x["phase_deg"] for x in r["points"]], "g.--", label="phase")
+    phase = np.degrees(np.unwrap(np.radians([x["phase_deg"] for x in r["points"]])))
+    q.semilogx(fr, phase, "g.--", label="phase")
     q.set_ylabel("phase (deg)", color="g")
     p.set_title(f"rate response, stepped sine of {r['amplitude_rad_s']:g} rad/s")
     p.legend(fontsize=7, loc="lower left")
@@ -180,6 +181,8 @@ def spec_figure(s: dict, path: Path) -> Path:
     p = ax[1, 1]
     su = s.get("_startup_trace")
     if su:
+        p.plot(su["t_s_1ms"], su["error_rad_s_1ms"], "-", color="0.65", lw=0.6,
+               label="error averaged over 1 ms")
         p.plot(su["t_s"], su["error_rad_s"], "k-", lw=0.8,
                label=f"error averaged over {a['startup_window_s']:.3g} s")
     band = a["startup_band_rad_s"]
@@ -188,6 +191,7 @@ def spec_figure(s: dict, path: Path) -> Path:
     p.axvline(a["startup_time_s"], color="b", ls="--",
               label=f"start-up {a['startup_time_s']:.3g} s")
     p.set_xscale("log")
+    p.set_ylim(-5.0 * band, 5.0 * band)
     p.set_xlabel("time from power-on (s)")
     p.set_ylabel(r"$\hat\Omega-\Omega$ (rad/s)")
     p.set_title("start-up to spec")
