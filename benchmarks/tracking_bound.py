@@ -17,7 +17,10 @@ For each case:
             observer run in-process (own loop over GyroPlantModel + GyroStateObserver, as
             gyro_fmu.system.inprocess.run_inprocess runs them, with a given rate tuning);
   obs sig   RMS of the observer's own 1-sigma of Omega_z over the same samples;
-  err/bound the efficiency (>= 1 up to Monte Carlo spread; 1 is efficient).
+  err/bound the efficiency (>= 1 up to Monte Carlo spread; 1 is efficient), +- its
+            standard error from the seed-to-seed spread (an error that is nearly constant
+            over the window is one sample per seed);
+  lost      seeds where the observer declared itself lost (left out of obs err).
 
 Tunings: "user" = ObserverTuning() defaults with the noise std told (sigma_z1, sigma_z2),
 what an FMU user gets, plus the --tuning NAME=VALUE overrides; for constant rates also
@@ -29,26 +32,33 @@ what an FMU user gets, plus the --tuning NAME=VALUE overrides; for constant rate
 
 from __future__ import annotations
 
-import argparse
-import math
-import time
-from dataclasses import fields
+import os
 
-import numpy as np
+# one BLAS thread: the information matrices are small (<= a few hundred columns), and on a
+# shared machine OpenBLAS's threads made the Gauss-Markov bound 7x slower (23 s vs 3 s)
+for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
 
-from gyro_fmu.estimation.observer import (
+import argparse  # noqa: E402
+import math  # noqa: E402
+import time  # noqa: E402
+from dataclasses import fields  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from gyro_fmu.estimation.observer import (  # noqa: E402
     GyroStateObserver,
     ObserverDivergedError,
     ObserverTuning,
 )
-from gyro_fmu.estimation.tracking_bound import (
+from gyro_fmu.estimation.tracking_bound import (  # noqa: E402
     gauss_markov_rate,
     tracking_bound_for_scenario,
 )
-from gyro_fmu.model.parameters import GyroParameters
-from gyro_fmu.model.plant import GyroPlantModel
-from gyro_fmu.model.rate import RateProfile
-from gyro_fmu.system.scenario import absolute_noise, observer_tuning, scenario
+from gyro_fmu.model.parameters import GyroParameters  # noqa: E402
+from gyro_fmu.model.plant import GyroPlantModel  # noqa: E402
+from gyro_fmu.model.rate import RateProfile  # noqa: E402
+from gyro_fmu.system.scenario import absolute_noise, observer_tuning, scenario  # noqa: E402
 
 RATES = ("constant:1", "sine:0.5:10:1", "sine:1:100")
 NOISE_LEVELS = (1e-5, 1e-4)
@@ -121,7 +131,7 @@ def main() -> None:
           f"{window[0] * 1e3:g}-{window[1] * 1e3:g} ms, tuning overrides {overrides}")
     print(f"ObserverTuning() defaults: {ObserverTuning()}")
     head = (f"{'rate':>22} {'noise':>6} {'tuning':>9} {'bound':>10} {'obs err':>10} "
-            f"{'obs sig':>10} {'err/bound':>9} {'sig/bound':>9} {'lost':>4} {'s':>4}")
+            f"{'obs sig':>10} {'err/bound':>9} {'+-':>5} {'sig/bound':>9} {'lost':>4} {'s':>4}")
     print("\n" + head)
     cases: list[tuple[str, RateProfile | None]] = [(r, RateProfile.parse(r)) for r in args.rates]
     if args.random:
@@ -144,8 +154,8 @@ def main() -> None:
             tunings = [("user", user)]
             if profile is not None and profile.kind.name == "constant":
                 tunings.append(("scenario", ObserverTuning(**observer_tuning(sc, std))))
-            rng = np.random.default_rng(12345)
             for tname, tun in tunings:
+                rng = np.random.default_rng(12345)  # the same rate draws for every tuning
                 errs, sigs, lost = [], [], 0
                 for seed in range(args.seeds):
                     s = sc.with_(seed=seed)
@@ -162,9 +172,13 @@ def main() -> None:
                     sigs.append(out[1])
                 e = rms(np.concatenate(errs)) if errs else math.nan
                 sg = rms(np.concatenate(sigs)) if sigs else math.nan
+                # standard error of e from the seed-to-seed spread of the mean squares
+                ms = np.array([np.mean(x**2) for x in errs])
+                se = (float(np.std(ms) / (2.0 * np.sqrt(ms.size) * np.mean(ms)))
+                      if ms.size > 1 else math.nan)
                 print(f"{label:>22} {noise:6.0e} {tname:>9} {b:10.3g} {e:10.3g} {sg:10.3g} "
-                      f"{e / b:9.2f} {sg / b:9.2f} {lost:4d} {time.perf_counter() - t0:4.0f}",
-                      flush=True)
+                      f"{e / b:9.2f} {se * e / b:5.2f} {sg / b:9.2f} {lost:4d} "
+                      f"{time.perf_counter() - t0:4.0f}", flush=True)
 
 
 if __name__ == "__main__":
