@@ -66,6 +66,7 @@ from ..model.measurement import MeasuredPair
 from ..model.parameters import PARAMETER_NAMES, GyroParameters
 from .fisher import RTOL
 from .observer import PRIOR_FRACTION, GyroStateObserver, ObserverTuning
+from .observer_kernels import I_PAR, N_PAR
 
 __all__ = [
     "RateModel",
@@ -374,7 +375,7 @@ def _prior_sigmas(initial: GyroParameters, tuning: ObserverTuning) -> np.ndarray
     """The observer's prior 1-sigma of theta = [kxx, kyy, kxy, dxx, dyy, dxy, 1/m] in SI
     (as GyroStateObserver.__init__ sets it from the guess `initial`)."""
     ref = GyroStateObserver(initial, 0.0, 1, tuning)
-    p_sig = np.sqrt(np.diag(ref.P)[4:11])
+    p_sig = np.sqrt(np.diag(ref.P)[I_PAR:I_PAR + N_PAR])
     return p_sig * ref.scale
 
 
