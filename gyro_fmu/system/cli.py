@@ -230,9 +230,13 @@ def _cmd_design_drive(args: argparse.Namespace) -> int:
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from ..model.parameters import PARAMETER_NAMES
+    from ..model.rate import RateKind
     from .sweep import SweepSpec, ToleranceModel, run_sweep, write_outputs
 
     sc = _scenario_from(args)
+    if sc.rate.kind is not RateKind.constant:
+        raise ParameterError(f"the sweep runs a constant rate (--rate constant:VALUE), not "
+                             f"{sc.rate.describe()}")
     spread = dict.fromkeys(PARAMETER_NAMES, args.spread)
     spread.update(_assignments(args.spread_of, "--spread-of"))
     tolerances = ToleranceModel(sc.preset, dict(sc.overrides), spread, args.distribution,
@@ -241,13 +245,14 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
                      Omega_z=sc.rate.Omega_z(0.0), stop_time=sc.stop_time
                      if args.stop_time is not None else 0.08, deadline=args.deadline,
                      step=sc.step, measured_pair=sc.measured_pair, noise_seed=sc.seed,
-                     tuning=dict(sc.tuning))
+                     tuning=dict(sc.tuning), rate_tuning=args.rate_tuning, drive=sc.drive)
     res = run_sweep(spec, Path(args.models), scheduler=args.scheduler, n_workers=args.workers)
     paths = write_outputs(res, Path(args.out), figures=not args.no_figures)
     s = res.summary()
     conv = s["convergence_time_s"]
     print(f"{s['n']} gyros ({s['ok']} ok, {s['failed']} failed) in {s['wall_s']:.0f} s on "
-          f"{s['n_workers']} workers: {s['gyros_per_minute']:.1f} gyros/min")
+          f"{s['n_workers']} workers: {s['gyros_per_minute']:.1f} gyros/min "
+          f"(observer rate tuning: {spec.rate_tuning})")
     def ms(v: float | None) -> str:
         return "n/a" if v is None else f"{v * 1e3:.2f} ms"
 
@@ -255,6 +260,12 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
           f"{s['fraction_all_within_at_deadline']:.1%}; convergence time p50 "
           f"{ms(conv['p50'])}, p95 {ms(conv['p95'])}, never {conv['never']}"
           + ("" if conv["p50"] is not None else " (no gyro converged)"))
+    share = f"{conv['deadline_fraction']:.0%}"
+    print(f"deadline for {share} of the lot within tolerance: "
+          + (ms(conv["deadline_for_fraction_s"]) if conv["deadline_for_fraction_s"] is not None
+             else f"not reached ({conv['never_or_failed']} of {s['n']} never converge or "
+                  f"failed)"))
+    _print_bound(s["bound"])
     for f in s["failures"][:10]:
         print(f"  failed gyro {f['gyro']}: {f['reason']}")
     print("wrote " + ", ".join(str(p) for p in paths))
@@ -262,6 +273,34 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         raise KeyboardInterrupt(f"sweep {res.interrupted}; their rows and the partial "
                                 f"summary are in {args.out}")
     return 0
+
+
+def _print_bound(b: dict | None) -> None:
+    """The sweep's comparison with the Cramer-Rao bound (an efficient estimator)."""
+    if b is None:
+        print("no Cramer-Rao comparison (noise off)")
+        return
+
+    def pct(v: float | None) -> str:
+        return "n/a" if v is None else f"{v:.1%}"
+
+    a = b["all"]
+    print(f"against the Cramer-Rao bound at {b['deadline_s'] * 1e3:g} ms ({b['n']} gyros, "
+          f"each its own inputs and noise; efficient = Gaussian with the bound):")
+    print(f"  all 8 within tolerance {pct(a['fraction_within_tol'])} (efficient "
+          f"{pct(a['efficient_fraction_within_tol'])}); within 2 bound-sigmas "
+          f"{pct(a['fraction_within_2_crb'])} (efficient "
+          f"{pct(a['efficient_fraction_within_2_crb'])})")
+    print(f"  {'unknown':>8} {'CRB/tol':>8} {'in tol':>7} {'effic.':>7} {'in 2CRB':>8} "
+          f"{'rms e/CRB':>9} {'mean e/CRB':>10}")
+    for name, u in b["per_unknown"].items():
+        def num(v: float | None, fmt: str) -> str:
+            return "n/a" if v is None else format(v, fmt)
+
+        print(f"  {name:>8} {num(u['median_crb_over_tol'], '8.3g')} "
+              f"{pct(u['fraction_within_tol']):>7} {pct(u['efficient_fraction_within_tol']):>7} "
+              f"{pct(u['fraction_within_2_crb']):>8} {num(u['rms_err_over_crb'], '9.2f')} "
+              f"{num(u['mean_err_over_crb'], '10.2f')}")
 
 # --- in main(), after the `observability` subparser: ---------------------------------------
 
@@ -388,6 +427,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="folder of our FMUs (default ./models)")
     sw.add_argument("--out", default="runs/sweep", help="output folder")
     sw.add_argument("--no-figures", action="store_true", help="skip the histograms")
+    sw.add_argument("--rate-tuning", dest="rate_tuning", choices=("scenario", "fmu-defaults"),
+                    default="scenario", help="observer rate model: the scenario's tuning for "
+                    "a constant rate (default) or the observer FMU's own defaults; --tuning "
+                    "overrides either")
     sw.set_defaults(func=_cmd_sweep)
 
     s = sub.add_parser("ssp", parents=[common],

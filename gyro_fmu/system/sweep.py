@@ -10,6 +10,17 @@ end of the run: 1% of its truth, 0.1 1/s for a zero damping, 1% of the peak
 rate; :mod:`gyro_fmu.estimation.metrics`), whether all 8 are within tolerance at the
 deadline, the wall time, and a status ``ok`` or ``failed`` with the reason.
 
+Each row also carries the Cramer-Rao bound at the deadline for that gyro's own
+inputs and noise (:func:`gyro_fmu.estimation.identify.crb_at` on the record of its
+run, samples before the deadline) and the observer's error in units of it. The
+summary compares the lot with an efficient estimator: the fraction within 2
+bound-sigmas per unknown and for all 8 (beside what an efficient estimator would
+reach, 95.4 % per unknown and the joint Gaussian probability for all 8), the RMS of
+err/CRB, the fraction an efficient estimator would have within tolerance (the
+probability P(|e| < tol), e ~ N(0, CRB), averaged over the lot; for all 8 the joint
+probability with the bound's correlations) beside the measured fraction, and the
+deadline by which 95 % of the lot are within tolerance (docs/sweep-bound.md).
+
 The runs are Dask tasks: a ``dask.distributed.LocalCluster`` (one single-threaded
 worker process per core) by default, or an existing scheduler by address
 (``scheduler="tcp://host:8786"``); nothing else changes. Workers need gyro_fmu
@@ -35,11 +46,23 @@ from typing import Literal
 import numpy as np
 
 from ..estimation.metrics import ESTIMATED, convergence_time, tolerance
+from ..model.drive import TwoToneDrive
 from ..model.parameters import PARAMETER_NAMES, ParameterError, preset
 from .scenario import Scenario, scenario
 
 #: Estimates beyond this many tolerances at the end count as diverged.
 DIVERGED_TOLERANCES = 1e3
+
+#: Fraction of the lot whose convergence time defines the sweep's deadline figure.
+DEADLINE_FRACTION = 0.95
+
+#: Gaussian draws per gyro for the joint probabilities of an efficient estimator.
+JOINT_DRAWS = 20000
+
+#: How the observer models the rate: "scenario" = gyro_fmu.system.scenario.observer_tuning
+#: for the scenario's constant rate; "fmu-defaults" = the rate settings of that tuning
+#: put back to the observer FMU's own defaults (the pick-off noise stays told).
+RATE_TUNINGS = ("scenario", "fmu-defaults")
 
 
 @dataclass(frozen=True)
@@ -105,19 +128,46 @@ class SweepSpec:
     measured_pair: int = 1
     noise_seed: int = 1000  #: gyro i gets noise seed noise_seed + i
     tuning: Mapping[str, float] = field(default_factory=dict)
+    rate_tuning: Literal["scenario", "fmu-defaults"] = "scenario"
+    drive: TwoToneDrive | None = None  #: None: the preset's default tones
+
+    def __post_init__(self) -> None:
+        if self.rate_tuning not in RATE_TUNINGS:
+            raise ParameterError(f"rate_tuning must be one of {RATE_TUNINGS}, not "
+                                 f"{self.rate_tuning!r}")
+
+    @property
+    def the_deadline(self) -> float:
+        return self.stop_time if self.deadline is None else self.deadline
 
     def base_scenario(self) -> Scenario:
         from ..model.rate import RateKind, RateProfile
 
-        return scenario(
+        sc = scenario(
             "default", preset=self.tolerances.preset, stop_time=self.stop_time, step=self.step,
-            noise=self.noise, measured_pair=self.measured_pair, tuning=dict(self.tuning),
+            noise=self.noise, measured_pair=self.measured_pair, drive=self.drive,
             rate=RateProfile(RateKind.constant, offset=self.Omega_z))
+        return sc.with_(tuning={**fmu_default_rate_tuning(sc), **self.tuning}
+                        if self.rate_tuning == "fmu-defaults" else dict(self.tuning))
 
     def scenario_for(self, i: int, drawn: Mapping[str, float]) -> Scenario:
         return self.base_scenario().with_(
             overrides={**self.tolerances.overrides, **drawn},
             initial=self.tolerances.nominal, seed=self.noise_seed + i)
+
+
+def fmu_default_rate_tuning(sc: Scenario) -> dict[str, float]:
+    """The rate settings observer_tuning makes for sc, at the observer FMU's defaults."""
+    from dataclasses import fields
+
+    from ..estimation.observer_tuning import ObserverTuning
+    from ..model.plant import MeasurementNoise
+    from .scenario import observer_tuning
+
+    defaults = {f.name: getattr(ObserverTuning(), f.name) for f in fields(ObserverTuning)}
+    # with the noise off, observer_tuning sets only what it chooses for the rate
+    chosen = observer_tuning(sc.with_(tuning={}), MeasurementNoise())
+    return {k: defaults[k] for k in chosen if k in defaults}
 
 
 def run_gyro(i: int, drawn: Mapping[str, float], spec: SweepSpec, models_dir: str) -> dict:
@@ -128,26 +178,27 @@ def run_gyro(i: int, drawn: Mapping[str, float], spec: SweepSpec, models_dir: st
     try:
         from ..model.parameters import validate_for_plant
         from .run import run_fmus
+        from .scenario import absolute_noise
 
         sc = spec.scenario_for(i, drawn)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             validate_for_plant(sc.params)
-            result = run_fmus(sc, Path(models_dir), ensure=False)  # the host ensured them
+            noise = absolute_noise(sc)
+            result = run_fmus(sc, Path(models_dir), noise=noise, ensure=False)  # host ensured
         row["warnings"] = " | ".join(str(w.message) for w in caught)
-        row.update(_reduce(sc, result, spec))
+        row.update(_reduce(sc, result, spec, noise, i))
     except Exception as exc:  # recorded, never raised: the sweep goes on
         row["reason"] = f"{type(exc).__name__}: {exc}".replace("\n", " ")[:500]
     row["wall_s"] = time.perf_counter() - start
     return row
 
 
-def _reduce(sc: Scenario, result, spec: SweepSpec) -> dict:
+def _reduce(sc: Scenario, result, spec: SweepSpec, noise=None, i: int = 0) -> dict:
     from .run import estimate_column
 
     t = result["time"]
-    deadline = spec.stop_time if spec.deadline is None else spec.deadline
-    k_dead = int(np.argmin(np.abs(t - deadline)))
+    k_dead = int(np.argmin(np.abs(t - spec.the_deadline)))
     truth = sc.params
     out: dict = {}
     conv_all: float | None = 0.0
@@ -169,6 +220,8 @@ def _reduce(sc: Scenario, result, spec: SweepSpec) -> dict:
         out[f"err_over_tol_{name}"] = float(abs(err[-1]) / tol)
         out[f"sigma_{name}"] = float(result[f"observer.sigma_{name}"][-1])
         out[f"conv_s_{name}"] = conv
+        out[f"tol_{name}"] = tol
+        out[f"err_dead_{name}"] = float(err[k_dead])
         within_all &= within
         conv_all = None if conv is None or conv_all is None else max(conv_all, conv)
     if not np.all(np.isfinite(result.data)):
@@ -177,7 +230,65 @@ def _reduce(sc: Scenario, result, spec: SweepSpec) -> dict:
         return {**out, "status": "failed",
                 "reason": f"diverged: final error {worst:.3g} tolerances"}
     out.update(status="ok", reason="", within_at_deadline=within_all, conv_s_all=conv_all)
+    if noise is not None and not noise.is_off:
+        out.update(_bound(sc, result, spec, noise, k_dead, out, seed=i))
     return out
+
+
+def _bound(sc: Scenario, result, spec: SweepSpec, noise, k_dead: int, out: dict,
+           seed: int = 0) -> dict:
+    """Cramer-Rao 1-sigma at the deadline for this gyro's inputs and noise, err / CRB, and
+    what an efficient estimator would reach (module docstring)."""
+    from ..estimation.identify import crb_at, record_from_result
+
+    pair = ("x", "y") if sc.measured_pair == 1 else ("vx", "vy")
+    std = tuple(float(getattr(noise, c)) for c in pair)
+    # the estimate at t_k has used the measurements at t_0 .. t_{k-1}
+    record = record_from_result(result, sc.measured_pair).head(max(k_dead, 10))
+    crb = crb_at(sc.params, spec.Omega_z, record, std)
+    row: dict = {"noise_std_z1": std[0], "noise_std_z2": std[1]}
+    sig = np.array([crb[n] for n in ESTIMATED])
+    tol = np.array([out[f"tol_{n}"] for n in ESTIMATED])
+    err = np.array([out[f"err_dead_{n}"] for n in ESTIMATED])
+    finite = bool(np.all(np.isfinite(sig)) and np.all(sig > 0))
+    for j, name in enumerate(ESTIMATED):
+        row[f"crb_{name}"] = float(sig[j])
+        row[f"err_over_crb_{name}"] = float(err[j] / sig[j]) if sig[j] > 0 else None
+        row[f"p_eff_{name}"] = float(math.erf(tol[j] / (math.sqrt(2.0) * sig[j]))) \
+            if sig[j] > 0 else 1.0
+    row["within_2crb_all"] = bool(np.all(np.abs(err) <= 2.0 * sig))
+    row["p_eff_all"] = row["p_eff_2crb_all"] = None
+    if finite:
+        corr = _bound_correlation(sc, spec.Omega_z, record, std)
+        e = _gaussian_draws(corr, np.random.default_rng(seed))  # in units of each CRB
+        row["p_eff_all"] = float(np.mean(np.all(np.abs(e) * sig <= tol, axis=1)))
+        row["p_eff_2crb_all"] = float(np.mean(np.all(np.abs(e) <= 2.0, axis=1)))
+    return row
+
+
+def _bound_correlation(sc: Scenario, Omega_z: float, record, std) -> np.ndarray:
+    """Correlation matrix of the Cramer-Rao bound of the 8 unknowns (crb_at gives the
+    diagonal only): the same exact sensitivities, weighted by the noise stds."""
+    from ..estimation import fisher
+    from ..estimation.sensitivity import ScaledSensitivitySystem
+    from ..model.measurement import MeasuredPair
+
+    sys = ScaledSensitivitySystem.build(sc.params, Omega_z, record.h)
+    sigma = sys.simulate(np.zeros(sys.Phi.shape[0]), record.u)
+    _, dS = sys.unscale(sigma)  # (N, 8, 4): c_i ds/dtheta_i
+    rows = list(MeasuredPair(record.measured_pair).state_rows)
+    dz = np.moveaxis(dS[:, :, rows], 1, 2) / np.asarray(std, float)[None, :, None]
+    cov = fisher.covariance(dz.reshape(-1, dz.shape[2]))
+    d = np.sqrt(np.diag(cov))
+    return cov / d[:, None] / d[None, :]
+
+
+def _gaussian_draws(corr: np.ndarray, rng: np.random.Generator,
+                    n: int = JOINT_DRAWS) -> np.ndarray:
+    """n draws of N(0, corr) (corr may be near singular)."""
+    w, V = np.linalg.eigh(corr)
+    root = V * np.sqrt(np.clip(w, 0.0, None))
+    return rng.standard_normal((n, corr.shape[0])) @ root.T
 
 
 # --------------------------------------------------------------------------- driver
@@ -203,6 +314,60 @@ class SweepResult:
         """Fraction of ALL gyros (failed ones count as not converged) within tol at deadline."""
         return sum(bool(r.get("within_at_deadline")) for r in self.rows) / max(1, len(self.rows))
 
+    def deadline_for(self, fraction: float = DEADLINE_FRACTION) -> dict:
+        """Earliest time by which `fraction` of ALL gyros have all 8 unknowns within
+        tolerance to the end of the run (their convergence times; a failed or never
+        converged gyro counts as infinitely late): None ("not reached") when more than
+        1 - fraction of the lot never converge."""
+        times = sorted(math.inf if r.get("conv_s_all") is None else r["conv_s_all"]
+                       for r in self.rows)
+        late = sum(math.isinf(v) for v in times)
+        value = None
+        if times:
+            v = times[max(0, math.ceil(fraction * len(times) - 1e-9) - 1)]
+            value = None if math.isinf(v) else float(v)
+        return {"deadline_fraction": fraction, "deadline_for_fraction_s": value,
+                "never_or_failed": late}
+
+    def bound_summary(self) -> dict | None:
+        """The lot against the Cramer-Rao bound at the deadline (None without noise)."""
+        rows = [r for r in self.ok if r.get("crb_Omega_z") is not None]
+        if not rows:
+            return None
+
+        def mean(values) -> float | None:
+            values = [v for v in values if v is not None]
+            return float(np.mean(values)) if values else None
+
+        per = {}
+        for name in ESTIMATED:
+            z = np.array([r[f"err_over_crb_{name}"] for r in rows
+                          if r[f"err_over_crb_{name}"] is not None], float)
+            per[name] = {
+                "median_crb_over_tol": _pct([r[f"crb_{name}"] / r[f"tol_{name}"]
+                                             for r in rows], 50),
+                "fraction_within_2_crb": float(np.mean(np.abs(z) <= 2.0)) if z.size else None,
+                "rms_err_over_crb": float(np.sqrt(np.mean(z**2))) if z.size else None,
+                "mean_err_over_crb": float(np.mean(z)) if z.size else None,
+                "fraction_within_tol": mean(abs(r[f"err_dead_{name}"]) <= r[f"tol_{name}"]
+                                            for r in rows),
+                "efficient_fraction_within_tol": mean(r[f"p_eff_{name}"] for r in rows),
+            }
+        efficient_2 = mean(r["p_eff_2crb_all"] for r in rows)
+        return {
+            "n": len(rows), "deadline_s": self.spec.the_deadline,
+            "efficient_fraction_within_2_crb_per_unknown": math.erf(2.0 / math.sqrt(2.0)),
+            "all": {
+                "fraction_within_tol": mean(bool(r["within_at_deadline"]) for r in rows),
+                "efficient_fraction_within_tol": mean(r["p_eff_all"] for r in rows),
+                "efficient_fraction_within_tol_product": mean(
+                    float(np.prod([r[f"p_eff_{n}"] for n in ESTIMATED])) for r in rows),
+                "fraction_within_2_crb": mean(bool(r["within_2crb_all"]) for r in rows),
+                "efficient_fraction_within_2_crb": efficient_2,
+            },
+            "per_unknown": per,
+        }
+
     def throughput_per_min(self) -> float:
         return 60.0 * len(self.rows) / self.wall_s if self.wall_s > 0 else math.nan
 
@@ -220,10 +385,12 @@ class SweepResult:
             "n": len(self.rows), "ok": len(ok), "failed": len(self.failed),
             "n_requested": self.spec.n, "interrupted": self.interrupted,
             "fraction_all_within_at_deadline": self.fraction_within(),
-            "deadline_s": self.spec.deadline or self.spec.stop_time,
+            "deadline_s": self.spec.the_deadline,
             "convergence_time_s": {"p50": _pct(conv, 50), "p95": _pct(conv, 95),
-                                   "never": len(ok) - len(conv)},
+                                   "never": len(ok) - len(conv),
+                                   **self.deadline_for(DEADLINE_FRACTION)},
             "per_unknown": per,
+            "bound": self.bound_summary(),
             "wall_s": self.wall_s, "n_workers": self.n_workers,
             "gyros_per_minute": self.throughput_per_min(),
             "failures": [{"gyro": r["gyro"], "reason": r["reason"]} for r in self.failed],
@@ -319,7 +486,7 @@ def histograms(res: SweepResult, path: Path) -> Path:
     ax = axes[0, 0]
     conv = [r["conv_s_all"] * 1e3 for r in ok if r.get("conv_s_all") is not None]
     ax.hist(conv, bins=30, color="C0")
-    dl = (res.spec.deadline or res.spec.stop_time) * 1e3
+    dl = res.spec.the_deadline * 1e3
     ax.axvline(dl, color="k", ls="--", lw=1, label=f"deadline {dl:g} ms")
     ax.set_xlabel("time all 8 within tolerance (ms)")
     ax.set_ylabel("gyros")
