@@ -39,6 +39,11 @@ def test_allan_deviation_of_white_rate_noise_gives_its_density():
     # white noise has no flat minimum in the record: only an upper bound
     bi = spec.bias_instability(taus, adev)
     assert not bi["resolved"] and bi["tau_min"] == pytest.approx(taus[-1], rel=0.3)
+    # smoothed (an observer's bandwidth): the deviation rises first; no minimum at tau = h
+    smooth = np.convolve(x, np.ones(50) / 50, mode="valid")
+    adev = allan_deviation(smooth, h, taus[taus < 0.2 * smooth.size * h])
+    bi = spec.bias_instability(taus[: adev.size], adev)
+    assert bi["tau_min"] > 50 * h and not bi["resolved"]
 
 
 def test_allan_deviation_of_a_rate_random_walk_gives_its_intensity():

@@ -281,11 +281,15 @@ def bias_instability(taus: np.ndarray, adev: np.ndarray) -> dict:
     """Bias instability B (rad/s) = the Allan deviation's flat minimum / 0.664
     (sigma = B sqrt(2 ln 2 / pi) on the flat part; IEEE 952 Annex C).
 
-    "resolved" is True when the minimum lies inside the tau range (not in its last two
-    points) with a local slope within +-0.25 there; otherwise the record is too short
-    (the deviation still falls) and B is an upper bound: the last deviation / 0.664.
+    The minimum is sought beyond the deviation's maximum: below it the output is
+    smoothed by the observer's own bandwidth (the deviation rises with tau there, a
+    filter's signature, not a bias). "resolved" is True when the minimum lies inside
+    the tau range (not in its last two points) with a local slope within +-0.25 there;
+    otherwise the record is too short (the deviation still falls) and B is an upper
+    bound: the last deviation / 0.664.
     """
-    i = int(np.argmin(adev))
+    i0 = int(np.argmax(adev))
+    i = i0 + int(np.argmin(adev[i0:]))
     slopes = local_slopes(taus, adev)
     resolved = i < len(adev) - 2 and abs(slopes[i]) <= 0.25
     return {"B": float(adev[i] / BIAS_INSTABILITY_FACTOR), "tau_min": float(taus[i]),
