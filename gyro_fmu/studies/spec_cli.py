@@ -102,9 +102,11 @@ def print_spec(s: dict) -> None:
           f"{f['full_scale_rad_s']:g} rad/s, {len(f['rates_rad_s'])} rates; offset "
           f"{f['offset_rad_s']:+.3g} rad/s)")
     print(f"  nonlinearity         {f['nonlinearity_ppm_fs']:.3g} ppm of full scale")
+    w, by = a["startup_window_s"], a["settled_by_s"]
+    inside = ("already inside over the first window" if by < 0.01 * w
+              else f"the estimate itself inside from {by:.3g} s")
     print(f"  start-up time        {a['startup_time_s']:.3g} s   (to +-{a['startup_band_rad_s']:g}"
-          f" rad/s, output averaged over {a['startup_window_s']:.3g} s; the estimate "
-          f"itself inside by {a['settled_by_s']:.3g} s)")
+          f" rad/s, output averaged over {w:.3g} s; {inside})")
     st = a["stationarity"]
     if not st["stationary"]:
         print(f"warning: the settled output is not stationary (white-noise level of the "
