@@ -26,7 +26,7 @@ Tunings: "user" = ObserverTuning() defaults with the noise std told (sigma_z1, s
 what an FMU user gets, plus the --tuning NAME=VALUE overrides; for constant rates also
 "scenario" = gyro_fmu.system.scenario.observer_tuning (the constant-rate model).
 
-    python benchmarks/tracking_bound.py [--seeds 4] [--noise 1e-5 1e-4] [--tuning q_Omega=1e8]
+    python benchmarks/tracking_bound.py [--seeds 32] [--noise 1e-5 1e-4] [--tuning q_Omega=1e8]
                                         [--random]
 """
 
@@ -114,7 +114,7 @@ def rms(a) -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--seeds", type=int, default=4)
+    ap.add_argument("--seeds", type=int, default=32)
     ap.add_argument("--noise", type=float, nargs="*", default=list(NOISE_LEVELS))
     ap.add_argument("--rates", nargs="*", default=list(RATES),
                     help="RateProfile.parse texts (constant:OFFSET, sine:AMP:FREQ[:OFFSET])")

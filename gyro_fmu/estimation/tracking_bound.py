@@ -291,12 +291,12 @@ def bayesian_information(step: StepFunction, s0: np.ndarray, n_p: int, rate: Rat
         for k in range(last):
             # measurements j < k are in M (+ rows) here; z_k is added below
             while e < len(ev) and ev[e] + (1 if filtered else 0) == k:
-                _flush(M, rows, ncol)
+                _flush(M, rows)
                 out[e] += M
                 e += 1
-            rows.append(Hw @ Sig[:, :ncol] if ncol < n else Hw @ Sig)
+            rows.append(Hw @ Sig[:, :ncol])
             if len(rows) * Hw.shape[0] >= _CHUNK:
-                _flush(M, rows, ncol)
+                _flush(M, rows)
             s1, Phi, Sp, Som = step(k, s, float(omega[k]))
             c0 = n_a + int(rate.col[k])
             ncol = max(ncol, c0 + w)
@@ -305,13 +305,15 @@ def bayesian_information(step: StepFunction, s0: np.ndarray, n_p: int, rate: Rat
             Sig[:, c0:c0 + w] += np.outer(Som, rate.coef[k])
             s = s1
         while e < len(ev):
-            _flush(M, rows, ncol)
+            _flush(M, rows)
             out[e] += M
             e += 1
     return out / draws
 
 
-def _flush(M: np.ndarray, rows: list[np.ndarray], ncol: int) -> None:
+def _flush(M: np.ndarray, rows: list[np.ndarray]) -> None:
+    """M += B^T B for the whitened rows G_j collected since the last flush (one BLAS call;
+    rows are as wide as the columns active when they were taken)."""
     if not rows:
         return
     m = max(r.shape[1] for r in rows)
@@ -379,8 +381,7 @@ def _prior_sigmas(initial: GyroParameters, tuning: ObserverTuning) -> np.ndarray
     return p_sig * ref.scale
 
 
-def _state_prior(truth: GyroParameters, initial: GyroParameters, tuning: ObserverTuning,
-                 u1: float) -> np.ndarray:
+def _state_prior(initial: GyroParameters, tuning: ObserverTuning, u1: float) -> np.ndarray:
     """1-sigma of s_0 = [x, vx, y, vy]: the tuning's, or the observer's auto prior
     (PRIOR_FRACTION of the guessed static deflection of the first drive sample u1)."""
     wx, wy = math.sqrt(initial.kxx), math.sqrt(initial.kyy)
@@ -435,7 +436,7 @@ def tracking_bound(
         s1, Phi, S = obs.held_step(s, u[k], 0.0, h, theta=theta, Omega_z=om)
         return s1, Phi, S[:, :7], S[:, 7]
 
-    sig_s0 = _state_prior(params, guess, tun, next((v for v in u if v != 0.0), 0.0))
+    sig_s0 = _state_prior(guess, tun, next((v for v in u if v != 0.0), 0.0))
     free = (sig_s0 > 0.0) if state_prior else np.zeros(4, bool)
     if t_eval is not None:
         steps = sorted({round(t / h) for t in t_eval})
