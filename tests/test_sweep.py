@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 
+import numpy as np
 import pytest
 
 pytest.importorskip("dask.distributed")
@@ -48,3 +49,133 @@ def test_three_gyro_sweep_with_one_failure(tmp_path, models_dir):
     assert summary["n"] == 3 and summary["failed"] == 1
     assert (tmp_path / "sweep_histograms.png").stat().st_size > 1000
     assert all(p.exists() for p in paths)
+    # the bound: each ok gyro against its own Cramer-Rao bound, the failed one without
+    for r in res.ok:
+        assert r["crb_Omega_z"] > 0 and np.isfinite(r["err_over_crb_Omega_z"])
+        assert 0 < r["p_eff_Omega_z"] <= 1 and 0 < r["p_eff_all"] <= r["p_eff_Omega_z"] + 0.02
+    assert "crb_Omega_z" not in failed
+    b = summary["bound"]
+    assert b["n"] == 2 and set(b["per_unknown"]) == set(summary["per_unknown"])
+    assert 0 <= b["all"]["efficient_fraction_within_tol"] <= 1
+    assert b["per_unknown"]["Omega_z"]["rms_err_over_crb"] > 0
+    conv = summary["convergence_time_s"]
+    assert conv["never_or_failed"] >= 1  # the failed gyro never converges
+    from gyro_fmu.system.cli import _print_bound
+
+    _print_bound(b)
+    _print_bound(None)
+
+
+# --------------------------------------------------------------------------- the bound
+
+
+def _drive_record(p, h=5e-6, window=0.02):
+    """Record of the scenario's drive (crb_at needs only the inputs; z is not used)."""
+    from gyro_fmu.estimation.identify import make_record
+    from gyro_fmu.system.scenario import scenario
+
+    drive = scenario("default").the_drive
+    t = np.arange(round(window / h)) * h
+    ux = np.array([drive.ux(tk) for tk in t])
+    return make_record(t, ux, np.zeros_like(t), np.zeros((t.size, 2)))
+
+
+@pytest.mark.parametrize("m", [0.5, 1e3])
+def test_crb_at_keeps_its_precision_at_tiny_displacements(m):
+    """A heavy proof mass on the same drive: displacements 1e-15 .. 1e-18 m and noise
+    1e-19 .. 1e-22 m. The problem only scales (z and the noise by m0/m), so the bounds
+    relative to each unknown (and Omega_z absolute) must not change."""
+    from gyro_fmu.estimation.identify import crb_at
+    from gyro_fmu.model.parameters import preset
+    from gyro_fmu.system.scenario import scenario
+    from gyro_fmu.system.sweep import _bound_correlation
+
+    p0 = preset("park-horowitz")
+    p1 = preset("park-horowitz", m=m)
+    rec = _drive_record(p0)
+    std0 = (6.6e-13, 4.8e-13)  # noise 1e-4 of the default run's peaks
+    scale = p0.m / m
+    std1 = (std0[0] * scale, std0[1] * scale)
+    a = crb_at(p0, 1.0, rec, std0)
+    b = crb_at(p1, 1.0, rec, std1)
+    assert 1e-4 < a["Omega_z"] < 1.0  # a genuine, finite bound
+    for name in a:
+        ref = 1.0 if name == "Omega_z" else getattr(p0, name)
+        ref1 = 1.0 if name == "Omega_z" else getattr(p1, name)
+        assert b[name] / ref1 == pytest.approx(a[name] / ref, rel=1e-9), name
+    c0 = _bound_correlation(scenario("default"), 1.0, rec, std0)
+    c1 = _bound_correlation(scenario("default", overrides={"m": m}), 1.0, rec, std1)
+    assert np.allclose(np.diag(c0), 1.0) and np.allclose(c0, c0.T)
+    assert np.allclose(c1, c0, atol=1e-9)
+
+
+def test_bound_correlation_matches_crb_at():
+    """The sweep's correlation comes from the same sensitivities as crb_at's diagonal."""
+    from gyro_fmu.estimation import fisher
+    from gyro_fmu.estimation.identify import crb_at
+    from gyro_fmu.estimation.sensitivity import ScaledSensitivitySystem
+    from gyro_fmu.system.scenario import scenario
+
+    sc = scenario("default")
+    rec = _drive_record(sc.params)
+    std = (6.6e-13, 4.8e-13)
+    sys = ScaledSensitivitySystem.build(sc.params, 1.0, rec.h)
+    _, dS = sys.unscale(sys.simulate(np.zeros(sys.Phi.shape[0]), rec.u))
+    dz = np.moveaxis(dS[:, :, [0, 2]], 1, 2) / np.asarray(std)[None, :, None]
+    sig = np.sqrt(np.diag(fisher.covariance(dz.reshape(-1, 8)))) * sys.scales
+    crb = crb_at(sc.params, 1.0, rec, std)
+    assert sig == pytest.approx([crb[n] for n in crb], rel=1e-6)
+
+
+def _result(conv):
+    from gyro_fmu.system.sweep import SweepResult
+
+    rows = [{"gyro": i, "status": "ok", "conv_s_all": c} for i, c in enumerate(conv)]
+    return SweepResult(rows, SweepSpec(n=len(rows)), 1.0, 1)
+
+
+def test_deadline_for_95_percent_of_the_lot():
+    times = [0.001 * (k + 1) for k in range(40)]  # 1 .. 40 ms
+    d = _result(times).deadline_for(0.95)
+    assert d["deadline_for_fraction_s"] == pytest.approx(0.038)  # 38 of 40
+    assert d["never_or_failed"] == 0
+    d = _result([*times[:38], None, None]).deadline_for(0.95)  # 2 of 40 never: 5 %
+    assert d["deadline_for_fraction_s"] == pytest.approx(0.038)
+    d = _result([*times[:37], None, None, None]).deadline_for(0.95)  # 7.5 % never
+    assert d["deadline_for_fraction_s"] is None and d["never_or_failed"] == 3
+    assert _result([]).deadline_for()["deadline_for_fraction_s"] is None
+
+
+def test_fmu_default_rate_tuning_puts_back_the_observer_defaults():
+    from gyro_fmu.estimation.observer_tuning import ObserverTuning
+
+    scen = SweepSpec().base_scenario()
+    fmu = SweepSpec(rate_tuning="fmu-defaults").base_scenario()
+    assert dict(scen.tuning) == {}  # observer_tuning chooses the constant-rate model
+    assert fmu.tuning["q_Omega"] == ObserverTuning().q_Omega
+    assert fmu.tuning["omega_order"] == ObserverTuning().omega_order
+    user = SweepSpec(rate_tuning="fmu-defaults", tuning={"q_Omega": 5.0}).base_scenario()
+    assert user.tuning["q_Omega"] == 5.0  # --tuning wins
+    with pytest.raises(ValueError):
+        SweepSpec(rate_tuning="adaptive-ish")
+
+
+def test_a_heavy_proof_mass_gives_the_same_gyro_and_bound(models_dir):
+    """--set m=0.5 (displacements ~1e-15 m): the same observer errors and bound in units
+    of each unknown as the nominal part, through the real FMUs."""
+    from gyro_fmu.system.sweep import run_gyro
+
+    rows = []
+    for over in ({}, {"m": 0.5}):
+        spec = SweepSpec(tolerances=ToleranceModel(overrides=over, seed=2), n=1,
+                         stop_time=0.01, noise=1e-4)
+        rows.append(run_gyro(0, spec.tolerances.draw(1)[0], spec, str(models_dir)))
+    a, b = rows
+    assert a["status"] == b["status"] == "ok", (a["reason"], b["reason"])
+    assert b["true_m"] / a["true_m"] == pytest.approx(0.5 / 1.8e-7)
+    assert b["noise_std_z1"] / a["noise_std_z1"] == pytest.approx(a["true_m"] / b["true_m"])
+    for name in ("Omega_z", "kxx", "dxy", "m"):
+        assert b[f"err_over_crb_{name}"] == pytest.approx(a[f"err_over_crb_{name}"],
+                                                          rel=1e-5, abs=1e-6), name
+        assert b[f"p_eff_{name}"] == pytest.approx(a[f"p_eff_{name}"], rel=1e-9)
+    assert 0.0 < a["p_eff_all"] <= 1.0 and b["p_eff_all"] == a["p_eff_all"]

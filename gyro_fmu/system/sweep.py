@@ -405,6 +405,7 @@ def _pct(values: Sequence[float], q: float) -> float | None:
 def _spec_dict(spec: SweepSpec) -> dict:
     d = asdict(spec)
     d["tolerances"]["nominal"] = spec.tolerances.nominal
+    d["observer_tuning_overrides"] = dict(spec.base_scenario().tuning)  # before the noise
     return json.loads(json.dumps(d, default=str))
 
 
