@@ -119,6 +119,23 @@ def test_stationarity_check_tells_a_tracking_output_from_a_growing_average():
     assert not spec.check_stationary(running[1000:], h, taus)["stationary"]
 
 
+def test_allan_study_refuses_noise_figures_of_a_growing_average():
+    # what a constant rate model does: Omega_hat the running mean of the information
+    rng = np.random.default_rng(4)
+    h, n = 1e-4, 100_000
+    err = np.cumsum(rng.standard_normal(n) * 0.1) / np.arange(1, n + 1)
+    rec = spec.Record((np.arange(n) + 1) * h, err, np.zeros(n), [], 0.0)
+    cfg = spec.SpecConfig(step=h, duration=n * h, startup_band=0.05, bw_frequencies=(10, 100))
+    a = spec.allan_study(rec, cfg)
+    assert a["arw_rad_s_per_sqrt_hz"] is None and a["bias_instability_rad_s"] is None
+    assert "not stationary" in a["noise_figures_refused"]
+    # white noise of the same record length: the figures are given
+    w = rng.standard_normal(n) * 0.01
+    a = spec.allan_study(spec.Record(rec.t, w, np.zeros(n), [], 0.0), cfg)
+    assert a["noise_figures_refused"] is None
+    assert a["arw_rad_s_per_sqrt_hz"] == pytest.approx(0.01 * math.sqrt(h), rel=0.05)
+
+
 def test_config_refuses_bad_inputs():
     with pytest.raises(spec.ParameterError, match="unknown observer tuning"):
         spec.SpecConfig(tuning={"no_such_field": 1.0})

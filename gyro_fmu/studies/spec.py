@@ -51,6 +51,8 @@ STARTUP_SIGMAS = 6.0
 #: Two halves of the settled record whose white-noise level differ by more than this
 #: factor: the output is not stationary and its Allan deviation is no noise figure.
 STATIONARITY_RATIO = 1.3
+#: Steps between two samples of an adaptive observer's rate-model probabilities.
+PROBABILITY_EVERY = 100
 #: Index of Omega_z in GyroStateObserver.output_row().
 _I_OMEGA = 4 + UNKNOWNS.index("Omega_z")
 _TUNING_NAMES = tuple(f.name for f in fields(ObserverTuning))
@@ -176,6 +178,10 @@ class Record:
     omega_true: np.ndarray
     warnings: list[tuple[float, str]]
     wall_s: float
+    #: rate models of an adaptive observer, and their probabilities every
+    #: PROBABILITY_EVERY steps (rows), from the first step; empty without them
+    rate_models: list[str] = field(default_factory=list)
+    rate_probabilities: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
     @property
     def error(self) -> np.ndarray:
@@ -207,6 +213,8 @@ def simulate(cfg: SpecConfig, rate: Callable[[float], float], duration: float,
     om_hat = np.empty(n)
     om_true = np.empty(n)
     warned: list[tuple[float, str]] = []
+    # an adaptive observer's rate-model probabilities, sampled (where it has them)
+    probs: list[list[float]] | None = [] if hasattr(observer, "rate_probabilities") else None
     status = 0
     start = time.perf_counter()
     t = 0.0
@@ -221,6 +229,8 @@ def simulate(cfg: SpecConfig, rate: Callable[[float], float], duration: float,
             plant.step(ux, 0.0, om, h)
             om_hat[k] = observer.output_row()[_I_OMEGA]
             om_true[k] = om
+            if probs is not None and k % PROBABILITY_EVERY == 0:
+                probs.append(list(observer.rate_probabilities().values()))
             if observer.status != status:
                 status = observer.status
                 if status == 1:
@@ -230,8 +240,10 @@ def simulate(cfg: SpecConfig, rate: Callable[[float], float], duration: float,
             f"{what}: the observer was lost at t = {t:.4g} s (status 2): {exc}. No spec "
             "from this gyro at these settings: lower the noise, give a smaller --step, or "
             "loosen the observer (--tuning)") from None
+    names = list(observer.rate_probabilities()) if probs is not None else []
     return Record((np.arange(n) + 1) * h, om_hat, om_true, warned,
-                  time.perf_counter() - start)
+                  time.perf_counter() - start, names,
+                  np.array(probs) if probs else np.zeros((0, len(names))))
 
 
 # ----------------------------------------------------------------- Allan deviation
@@ -388,7 +400,24 @@ def allan_study(rec: Record, cfg: SpecConfig) -> dict:
     bi = bias_instability(taus, adev)
     stat = check_stationary(settled, h, [tau for tau in taus if tau >= 1e-3][:6])
     N = arw["N"]
+    remedy = ("--tuning rate_model=2 --tuning rate_bandwidth=HZ (a tracking model of stated "
+              "bandwidth)" if "rate_model" in _TUNING_NAMES else
+              "--tuning q_Omega=Q (a tracking model, omega_order 2)")
+    refused = None
+    if not stat["stationary"]:
+        refused = (
+            "the settled output is not stationary (white-noise level of the first / second "
+            f"half {stat['ratio_first_to_second_half']:.3g}): the observer's rate bandwidth "
+            "changes during the record (a constant rate model, or an adaptive one settling "
+            "into it, averages ever longer), so its Allan deviation describes this record, "
+            f"not a noise of the gyro. For noise figures at a stated bandwidth: {remedy}")
+    elif N is None:
+        refused = ("no white-rate-noise (-1/2) region in the Allan deviation of this record: "
+                   f"give a longer --duration or a rate model of stated bandwidth: {remedy}")
+    if refused:
+        N = None
     sigma_bias = (N / math.sqrt(len(settled) * h)) if N else None
+    B = None if refused else bi["B"]
     return {
         "rate_rad_s": cfg.rate,
         "record_s": cfg.duration,
@@ -400,8 +429,9 @@ def allan_study(rec: Record, cfg: SpecConfig) -> dict:
         "arw_deg_per_sqrt_h": None if N is None else N * ARW_DEG_PER_SQRT_H,
         "arw_tau_range_s": arw["tau_range"],
         "adev_at_1s_rad_s": None if N is None else N,
-        "bias_instability_rad_s": bi["B"],
-        "bias_instability_deg_h": bi["B"] * DEG_PER_H,
+        "noise_figures_refused": refused,
+        "bias_instability_rad_s": B,
+        "bias_instability_deg_h": None if B is None else B * DEG_PER_H,
         "bias_instability_resolved": bi["resolved"],
         "bias_instability_tau_s": bi["tau_min"],
         "adev_slope_at_min": bi["slope_at_min"],
@@ -564,6 +594,7 @@ def measure_spec(cfg: SpecConfig, progress: Callable[[str], None] = lambda s: No
     rec = simulate(cfg, lambda t: cfg.rate, cfg.duration, "Allan/start-up run")
     progress(f"  done in {rec.wall_s:.1f} s")
     allan = allan_study(rec, cfg)
+    allan["rate_model_probabilities"] = probability_summary(rec, allan["settled_from_s"], h)
     trace = startup_trace(rec, allan["startup_window_s"], h)
     warnings_ = warning_summary("Allan/start-up run", rec)
     del rec
@@ -624,6 +655,17 @@ def measure_spec(cfg: SpecConfig, progress: Callable[[str], None] = lambda s: No
     }
 
 
+def probability_summary(rec: Record, t_from: float, h: float) -> dict | None:
+    """Mean over the settled record and final probability of each rate model of an
+    adaptive observer (None for an observer without them)."""
+    if not rec.rate_models or rec.rate_probabilities.size == 0:
+        return None
+    p = rec.rate_probabilities
+    k0 = min(len(p) - 1, int(t_from / (h * PROBABILITY_EVERY)))
+    return {name: {"mean": float(np.mean(p[k0:, j])), "final": float(p[-1, j])}
+            for j, name in enumerate(rec.rate_models)}
+
+
 def warning_summary(what: str, rec: Record) -> list[str]:
     """One line per run with status-1 episodes of the observer (innovations above their
     chi-square band): how many, and the first one in words."""
@@ -647,15 +689,20 @@ def startup_trace(rec: Record, window: float, h: float, points: int = 400) -> di
 
 
 def rate_model_text(tun: ObserverTuning) -> str:
-    """The observer's rate model in words (whatever fields this ObserverTuning has)."""
+    """The observer's rate model in words, for the ObserverTuning at hand: with a
+    rate_model field (0 adaptive, 1 constant, 2 tracking, 3 expert) or without one
+    (q_Omega on the omega_order-th derivative only)."""
     d = asdict(tun)
-    parts = []
-    if "rate_model" in d:
-        names = {0: "adaptive", 1: "constant", 2: "tracking", 3: "expert"}
-        parts.append(f"rate_model {d['rate_model']:g} "
-                     f"({names.get(int(d['rate_model']), '?')})")
-        if "rate_bandwidth" in d:
-            parts.append(f"rate_bandwidth {d['rate_bandwidth']:g} Hz")
-    if "q_Omega" in d and "omega_order" in d:
-        parts.append(f"q_Omega {d['q_Omega']:g}, omega_order {d['omega_order']:g}")
-    return ", ".join(parts)
+    if "rate_model" not in d:
+        return f"q_Omega {d['q_Omega']:g}, omega_order {d['omega_order']:g}"
+    kind = int(d["rate_model"])
+    follow = (f"rate_bandwidth {d.get('rate_bandwidth', float('nan')):g} Hz, "
+              f"rate_span {d.get('rate_span', float('nan')):g} rad/s")
+    if kind == 0:
+        return (f"rate_model 0 (adaptive: constant/slow/agile mixed), {follow}, "
+                f"rate_dwell {d.get('rate_dwell', float('nan')):g} s")
+    if kind == 1:
+        return "rate_model 1 (constant)"
+    if kind == 2:
+        return f"rate_model 2 (tracking), {follow}"
+    return f"rate_model {kind} (expert), q_Omega {d['q_Omega']:g}, omega_order {d['omega_order']:g}"

@@ -82,16 +82,23 @@ def print_spec(s: dict) -> None:
           f"{s['step_s']:g} s sample = {n['density_x_m_per_sqrt_hz']:.3g}, "
           f"{n['density_y_m_per_sqrt_hz']:.3g} m/sqrt(Hz))")
     print(f"observer rate model: {s['rate_model']}")
+    probs = s["allan"].get("rate_model_probabilities")
+    if probs:
+        print("  model probabilities at the constant rate (mean after start-up / final): "
+              + ", ".join(f"{k} {v['mean']:.3f}/{v['final']:.3f}" for k, v in probs.items()))
     arw = a["arw_rad_s_per_sqrt_hz"]
     print(f"  angle random walk    {_fmt(arw)} rad/s/sqrt(Hz) = {_fmt(a['arw_deg_per_sqrt_h'])}"
           f" deg/sqrt(h)   (-1/2 line at tau = 1 s, fitted over {_tau_range(a)})")
     bi = "" if a["bias_instability_resolved"] else "< "
-    print(f"  bias instability     {bi}{a['bias_instability_rad_s']:.3g} rad/s = {bi}"
-          f"{a['bias_instability_deg_h']:.3g} deg/h   (ADEV minimum / 0.664 at tau "
-          f"{a['bias_instability_tau_s']:.3g} s"
-          + ("" if a["bias_instability_resolved"] else
-             f"; not reached: the deviation still falls, slope {a['adev_slope_at_min']:+.2f}, "
-             "at the longest tau") + ")")
+    if a["bias_instability_rad_s"] is None:
+        print("  bias instability     n/a")
+    else:
+        print(f"  bias instability     {bi}{a['bias_instability_rad_s']:.3g} rad/s = {bi}"
+              f"{a['bias_instability_deg_h']:.3g} deg/h   (ADEV minimum / 0.664 at tau "
+              f"{a['bias_instability_tau_s']:.3g} s"
+              + ("" if a["bias_instability_resolved"] else
+                 f"; not reached: the deviation still falls, slope "
+                 f"{a['adev_slope_at_min']:+.2f}, at the longest tau") + ")")
     print(f"  bias at {a['rate_rad_s']:g} rad/s      {a['bias_rad_s']:+.3g} rad/s "
           f"+- {_fmt(a['bias_sigma_rad_s'])} (1 sigma, {a['record_s'] - a['settled_from_s']:.3g}"
           " s mean)")
@@ -107,12 +114,8 @@ def print_spec(s: dict) -> None:
               else f"the estimate itself inside from {by:.3g} s")
     print(f"  start-up time        {a['startup_time_s']:.3g} s   (to +-{a['startup_band_rad_s']:g}"
           f" rad/s, output averaged over {w:.3g} s; {inside})")
-    st = a["stationarity"]
-    if not st["stationary"]:
-        print(f"warning: the settled output is not stationary (white-noise level of the "
-              f"first half / second half = {st['ratio_first_to_second_half']:.3g}): the "
-              "Allan figures describe this record only, not a noise of the gyro; measure "
-              "with a tracking rate model for a datasheet figure", file=sys.stderr)
+    if a["noise_figures_refused"]:
+        print(f"  n/a: {a['noise_figures_refused']}")
     for w in s["warnings"]:
         print(f"note: {w}", file=sys.stderr)
 
@@ -144,9 +147,13 @@ def spec_figure(s: dict, path: Path) -> Path:
                  label=f"slope -1/2: ARW N = {N:.3g} rad/s/$\\sqrt{{Hz}}$")
         p.plot([1.0], [N], "bo")
     B = a["bias_instability_rad_s"]
-    p.axhline(0.664 * B, color="r", ls=":",
-              label=("slope 0: 0.664 B, B = " if a["bias_instability_resolved"]
-                     else "bound: 0.664 B, B < ") + f"{B:.3g} rad/s")
+    if B is not None:
+        p.axhline(0.664 * B, color="r", ls=":",
+                  label=("slope 0: 0.664 B, B = " if a["bias_instability_resolved"]
+                         else "bound: 0.664 B, B < ") + f"{B:.3g} rad/s")
+    else:
+        p.text(0.02, 0.02, "no noise figures\n(summary.json: allan.noise_figures_refused)",
+               transform=p.transAxes, fontsize=7, color="r")
     p.set_xlabel(r"averaging time $\tau$ (s)")
     p.set_ylabel(r"Allan deviation $\sigma(\tau)$ (rad/s)")
     p.set_title(f"noise at {a['rate_rad_s']:g} rad/s, {a['record_s']:g} s record")
