@@ -87,8 +87,11 @@ def print_spec(s: dict) -> None:
         print("  model probabilities at the constant rate (mean after start-up / final): "
               + ", ".join(f"{k} {v['mean']:.3f}/{v['final']:.3f}" for k, v in probs.items()))
     arw = a["arw_rad_s_per_sqrt_hz"]
-    print(f"  angle random walk    {_fmt(arw)} rad/s/sqrt(Hz) = {_fmt(a['arw_deg_per_sqrt_h'])}"
-          f" deg/sqrt(h)   (-1/2 line at tau = 1 s, fitted over {_tau_range(a)})")
+    if arw is None:
+        print("  angle random walk    n/a (below)")
+    else:
+        print(f"  angle random walk    {arw:.3g} rad/s/sqrt(Hz) = {a['arw_deg_per_sqrt_h']:.3g}"
+              f" deg/sqrt(h)   (-1/2 line at tau = 1 s, fitted over {_tau_range(a)})")
     bi = "" if a["bias_instability_resolved"] else "< "
     if a["bias_instability_rad_s"] is None:
         print("  bias instability     n/a")
@@ -102,6 +105,8 @@ def print_spec(s: dict) -> None:
     print(f"  bias at {a['rate_rad_s']:g} rad/s      {a['bias_rad_s']:+.3g} rad/s "
           f"+- {_fmt(a['bias_sigma_rad_s'])} (1 sigma, {a['record_s'] - a['settled_from_s']:.3g}"
           " s mean)")
+    print(f"  rate noise (rms)     {a['std_rad_s']:.3g} rad/s   (std of Omega_hat - Omega after "
+          "start-up, at the observer's own output bandwidth)")
     bound = {"below": "< ", "above": "> ", None: ""}[r["bound"]]
     print(f"  bandwidth (-3 dB)    {bound}{r['f_3db_hz']:.4g} Hz   (stepped sine of "
           f"{r['amplitude_rad_s']:g} rad/s; peaking {r['peaking_db']:+.2f} dB)")
