@@ -14,6 +14,8 @@ _ESTIMATED = ("Omega_z", "kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m")
 #: Status-1 warnings logged per instance (a noisy run may enter and leave status 1 often).
 _MAX_WARNINGS = 3
 _HAT = {"Omega_z": "Omega_hat"}  # the patent's Omega_z' is published as Omega_hat
+_RATE_KINDS = {"constant": "Omega_z held", "slow": "Omega_z moving at up to a tenth of "
+               "rate_bandwidth", "agile": "Omega_z moving at up to rate_bandwidth"}
 #: The outputs in the order of GyroStateObserver.output_row().
 _OUTPUTS = ("x_hat", "vx_hat", "y_hat", "vy_hat", *(_HAT.get(n, f"{n}_hat") for n in _ESTIMATED),
             *(f"sigma_{n}" for n in _ESTIMATED))
@@ -51,6 +53,9 @@ class GyroObserver(GyroSlave):
           for n in _ESTIMATED),
         *(Var(f"sigma_{n}", "output", 0.0, _UNITS[n], f"1-sigma uncertainty of {n}", min=0.0)
           for n in _ESTIMATED),
+        *(Var(f"p_rate_{k}", "output", 1.0 / 3.0, "1",
+              f"probability that the rate is {k} ({_RATE_KINDS[k]}; adaptive rate model; "
+              "a fixed one: 1 for its kind, 0 else)", min=0.0, max=1.0) for k in _RATE_KINDS),
         Var("status", "output", 0.0, "1",
             "observer health: 0 ok; 1 warning (innovations outside their band, logged: the "
             "estimates may be off more than their sigmas say); 2 lost (the filter diverged "
@@ -114,3 +119,5 @@ class GyroObserver(GyroSlave):
 
     def _publish(self) -> None:
         self.__dict__.update(zip(_OUTPUTS, self.observer.output_row(), strict=True))
+        for k, p in self.observer.rate_probabilities().items():
+            setattr(self, f"p_rate_{k}", p)

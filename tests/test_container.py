@@ -83,8 +83,7 @@ def test_the_container_runs_like_the_master(container, models_dir):
     # rate model, which the scenario makes constant for its constant rate
     # (scenario.observer_tuning).
     default = simulate(container)
-    fmu_defaults = scenario(stop_time=STOP, tuning={"q_Omega": ObserverTuning().q_Omega,
-                                                      "omega_order": ObserverTuning().omega_order})
+    fmu_defaults = scenario(stop_time=STOP, tuning={"rate_model": ObserverTuning().rate_model})
     rel = max_relative(default, run_fmus(fmu_defaults, models_dir), names)
     assert max(rel.values()) <= 1e-12
 

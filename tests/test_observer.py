@@ -176,7 +176,8 @@ def test_sigmas_are_consistent_with_errors_under_noise() -> None:
     for seed in range(8):
         rng = np.random.default_rng(seed)
         z = z0 + rng.standard_normal(z0.shape) * 1e-4 * peak
-        obs = GyroStateObserver(guess(p), tuning=ObserverTuning(noise_rel=1e-4, q_Omega=1e6))
+        obs = GyroStateObserver(guess(p), tuning=ObserverTuning(noise_rel=1e-4, rate_model=3,
+                                                              q_Omega=1e6))
         for k in range(n):
             obs.step(float(ux[k]), 0.0, float(z[k, 0]), float(z[k, 1]), H)
             if k >= n - 1000 and k % 50 == 0:

@@ -97,8 +97,15 @@ def test_libcosim_runs_the_package_like_the_fmpy_master(models_dir, tmp_path):
     assert set(theirs) == set(ours.columns)
     rel = relative_differences(theirs, ours)
     # Plant, drive and rate agree to rounding; the observer amplifies libcosim's
-    # clock (integer ns: t one ulp off, h jittering by 1e-12) to about 2e-10 in 2 ms.
-    assert max(rel.values()) < 1e-9, sorted(rel.items(), key=lambda kv: -kv[1])[:3]
+    # clock (integer ns: t one ulp off, h jittering by 1e-12): on noise-free data its
+    # innovations are differences of nearly equal numbers, and the adaptive rate model's
+    # likelihoods and the noise estimated from them carry that on: measured 3e-7 on
+    # Omega_hat and 1.2e-5 on the rate-model probabilities in 2 ms (2e-10 with a fixed
+    # rate model and a fixed noise floor).
+    rates = {k: v for k, v in rel.items() if k.startswith("observer.p_rate_")}
+    assert len(rates) == 3 and max(rates.values()) < 1e-4, rates
+    rest = {k: v for k, v in rel.items() if k not in rates}
+    assert max(rest.values()) < 3e-6, sorted(rest.items(), key=lambda kv: -kv[1])[:3]
     for name in ("plant.x", "plant.y", "plant.vy", "drive.ux", "rate.Omega_z"):
         assert rel[name] < 1e-12, (name, rel[name])
     # The bindings mattered: on the FMUs' own defaults the plant moves differently.

@@ -23,6 +23,7 @@ from numba import njit
 from ..model.measurement import UNKNOWNS, MeasuredPair
 from ..model.parameters import GyroParameters, check_parameters
 from . import observer_kernels as kern
+from . import observer_rate as rate
 from .observer_kernels import I_OM, I_PAR, KMAX, N_MON, N_PAR, NoiseModel, ObserverModel
 from .observer_monitor import (
     MonitorLimits,
@@ -38,7 +39,7 @@ from .observer_tuning import ObserverTuning
 
 __all__ = ["GyroStateObserver", "ObserverDivergedError", "ObserverStepError", "ObserverTuning"]
 
-_STATE_VERSION = 2
+_STATE_VERSION = 3
 #: Auto prior of [x, vx, y, vy] started by the drive (plant at rest): this fraction of the
 #: static deflection (m); 10 % or more let the velocity-pair filter converge to Omega -5.
 PRIOR_FRACTION = 0.01
@@ -51,24 +52,27 @@ N_OUTPUTS = 4 + 8 + 8
 
 
 @njit(cache=True)
-def _ekf_step(model, noise, lim, x, P, L, peak, nu2, mon, F, Q, ux, uy, z1, z2, h, pv, pk0,
-              pk1):  # pragma: no cover
+def _ekf_step(model, noise, lim, xs, Ps, c, mu, x, P, L, peak, nu2, mon, Fr, Qr, Pi, qpar,
+              ux, uy, z1, z2, h, pv, pk0, pk1):  # pragma: no cover
     """step() in one compiled call: correct at t, predict to t + h, monitor (its verdict).
 
-    pv > 0: the auto prior starts here, after the correction (as predict() starts it):
-    variance pv on [x, vx, y, vy], running peaks at least pk0, pk1.
+    xs, Ps, c, mu: the rate models' filters and probabilities (observer_rate); x, P their
+    combination. pv > 0: the auto prior starts here, after the correction (as predict()
+    starts it): variance pv on [x, vx, y, vy], running peaks at least pk0, pk1.
 
     model and noise arrive as plain tuples (numba types those 0.6 us faster per call
     than NamedTuples) and are given their field names here.
     """
     m = ObserverModel(*model)
-    kern.correct(m, NoiseModel(*noise), x, P, peak, nu2, mon, z1, z2, h)
+    rate.update(m, NoiseModel(*noise), xs, Ps, c, mu, x, P, peak, nu2, mon, z1, z2, h)
     if pv > 0.0:
         peak[0] = max(peak[0], pk0)
         peak[1] = max(peak[1], pk1)
         for i in range(4):
             P[i, i] += pv
-    kern.predict(m, x, P, F, Q, ux, uy, h)
+            for j in range(xs.shape[0]):
+                Ps[j, i, i] += pv
+    rate.predict(m, xs, Ps, mu, c, Pi, x, P, Fr, Qr, qpar, ux, uy, h)
     return check(m, MonitorLimits(*lim), x, P, L, peak, mon)
 
 
@@ -78,8 +82,9 @@ class GyroStateObserver:
     step(ux, uy, z1, z2, h) = update(z1, z2, h) then predict(ux, uy, h): correct with the
     measured pair at t, propagate to t + h with ux, uy (N) and Omega_z held. Filter state
     [x, vx/wx, y, vy/wy, p_kxx, p_kyy, p_kxy, p_dxx, p_dyy, p_dxy, p_b, Omega_z,
-    dOmega_z/dt (order >= 2), d2Omega_z/dt2 (order 3)], wx = sqrt(kxx_0), wy = sqrt(kyy_0),
-    theta = theta_0 + scale p, b = 1/m.
+    dOmega_z/dt, d2Omega_z/dt2 (as many as the rate models use)], wx = sqrt(kxx_0),
+    wy = sqrt(kyy_0), theta = theta_0 + scale p, b = 1/m. The rate models
+    (observer_rate: adaptive by default) each run this filter; xhat, P are their mixture.
     """
 
     #: The unknowns, in the order of estimates() and sigmas() (model.measurement.UNKNOWNS).
@@ -112,7 +117,7 @@ class GyroStateObserver:
             raise ValueError(f"tuning={tun!r} must be an ObserverTuning or None")
         self.tuning = tun
         self.measured_pair = pair
-        self.order = int(tun.omega_order)
+        self.order = rate.rate_block_size(tun)
         self.n = 4 + N_PAR + self.order
         wx = math.sqrt(initial.kxx)
         wy = math.sqrt(initial.kyy)
@@ -141,6 +146,11 @@ class GyroStateObserver:
             sig[I_OM + 2] = tun.sigma0_Omega_acc
         self.xhat = xhat
         self.P = np.diag(sig**2)
+        M = len(self.rate_models)
+        self.xs = np.tile(xhat, (M, 1))  # each rate model's filter (observer_rate)
+        self.Ps = np.tile(self.P, (M, 1, 1))
+        self.mu = np.full(M, 1.0 / M)  # model probabilities after the last correction
+        self.c = self.mu.copy()  # ... predicted to the next one
         # running peak |z1|, |z2|, from the prior's scale: R > 0 in relative noise mode
         i0 = self.measured_pair.state_rows[0]
         self.peak = sig[[i0, i0 + 2]] * self._model.hgain
@@ -187,8 +197,9 @@ class GyroStateObserver:
             noise_rel=float(tun.noise_rel), innov_floor=float(tun.innov_floor),
             innov_tau=float(tun.innov_tau), joseph=bool(tun.joseph))
         self._model_t, self._noise_t = tuple(self._model), tuple(self._noise)
-        self._F = np.eye(n)
-        self._Q = np.zeros((n, n))
+        self.rate_models = rate.model_names(tun)  #: names of the rate models run
+        self._Fr, self._Qr, self._Pi = rate.rate_models(tun, 1.0)
+        self._qpar = 0.0
         self._h_cached = -1.0
         self._Tdiag = np.array([1.0, 1.0 / wx, 1.0, 1.0 / wy])
         self._out = np.empty(N_OUTPUTS)
@@ -196,23 +207,10 @@ class GyroStateObserver:
         self._lim = limits(self._model, tun, self.measured_pair)
 
     def _set_h(self, h: float) -> None:
-        """Omega-model transition and process noise of a step h (cached: h rarely changes)."""
+        """Rate models' transitions and process noise of a step h (cached: h rarely changes)."""
         step_too_coarse(h, max(self.wx, self.wy))
-        tun = self.tuning
-        n, r = self.n, self.order
-        F = self._F
-        Q = np.zeros((n, n))
-        for a in range(r):
-            for c in range(a + 1, r):
-                F[I_OM + a, I_OM + c] = h ** (c - a) / math.factorial(c - a)
-        for a in range(r):  # white noise on the r-th derivative of Omega
-            for c in range(r):
-                pa, pc = r - 1 - a, r - 1 - c
-                Q[I_OM + a, I_OM + c] = tun.q_Omega * h ** (pa + pc + 1) / (
-                    math.factorial(pa) * math.factorial(pc) * (pa + pc + 1))
-        for i in range(N_PAR):
-            Q[I_PAR + i, I_PAR + i] = tun.q_param_rel * h
-        self._Q = Q
+        self._Fr, self._Qr, self._Pi = rate.rate_models(self.tuning, h)
+        self._qpar = self.tuning.q_param_rel * h
         self._h_cached = h
 
     @staticmethod
@@ -255,8 +253,9 @@ class GyroStateObserver:
                     q = PRIOR_FRACTION * size
                     pv, pk0, pk1 = q * q, size * g[0], size * g[1]
                     self._auto_prior = False
-        code = _ekf_step(self._model_t, self._noise_t, self._lim, self.xhat, self.P, self._L,
-                         self.peak, self.nu2, self.mon, self._F, self._Q, float(ux), float(uy),
+        code = _ekf_step(self._model_t, self._noise_t, self._lim, self.xs, self.Ps, self.c,
+                         self.mu, self.xhat, self.P, self._L, self.peak, self.nu2, self.mon,
+                         self._Fr, self._Qr, self._Pi, self._qpar, float(ux), float(uy),
                          float(z1), float(z2), float(h), pv, pk0, pk1)
         self.t += h
         if code != self.status:
@@ -283,6 +282,7 @@ class GyroStateObserver:
         size *= PRIOR_FRACTION if (ux or uy) else PRIOR_FRACTION_MEASURED
         for i in range(4):  # filter units: m for all four (velocities scaled by 1/w)
             self.P[i, i] += size * size
+            self.Ps[:, i, i] += size * size
         self._auto_prior = False
 
     def _verdict(self, code: int, h: float) -> None:
@@ -310,8 +310,8 @@ class GyroStateObserver:
             raise ObserverDivergedError(self.lost)
         if self._auto_prior:
             self._start_prior(0.0, 0.0, z1, z2)
-        kern.correct(self._model, self._noise, self.xhat, self.P, self.peak, self.nu2,
-                     self.mon, float(z1), float(z2), float(h))
+        rate.update(self._model, self._noise, self.xs, self.Ps, self.c, self.mu, self.xhat,
+                    self.P, self.peak, self.nu2, self.mon, float(z1), float(z2), float(h))
 
     def predict(self, ux: float, uy: float, h: float) -> None:
         """Propagate the estimate and its covariance to t + h (eq. 5), ux, uy (N) held."""
@@ -323,8 +323,8 @@ class GyroStateObserver:
             self._set_h(h)
         if self._auto_prior:
             self._start_prior(ux, uy, 0.0, 0.0)
-        kern.predict(self._model, self.xhat, self.P, self._F, self._Q, float(ux), float(uy),
-                     float(h))
+        rate.predict(self._model, self.xs, self.Ps, self.mu, self.c, self._Pi, self.xhat,
+                     self.P, self._Fr, self._Qr, self._qpar, float(ux), float(uy), float(h))
         self.t += h
         code = check(self._model, MonitorLimits(*self._lim), self.xhat, self.P, self._L,
                      self.peak, self.mon)
@@ -356,6 +356,20 @@ class GyroStateObserver:
         kern.output_row(self.theta0, self.scale, self.xhat, self.P, self._Tdiag, self._out)
         return self._out.tolist()
 
+    def rate_probabilities(self) -> dict[str, float]:
+        """P(the rate is constant / slow / agile) after the last step (observer_rate): the
+        IMM's model probabilities; a fixed model: 1 for its kind (agile for tracking),
+        0 for the others; expert: all 0."""
+        out = dict.fromkeys(rate.RATE_KINDS, 0.0)
+        kind = rate.RateModel(int(self.tuning.rate_model))
+        if kind is rate.RateModel.adaptive:
+            out.update(zip(self.rate_models, self.c.tolist(), strict=True))
+        elif kind is rate.RateModel.constant:
+            out["constant"] = 1.0
+        elif kind is rate.RateModel.tracking:
+            out["agile"] = 1.0
+        return out
+
     def state_estimate(self) -> np.ndarray:
         """[x, vx, y, vy] at the current time (m, m/s)."""
         return np.array(self.output_row()[:4])
@@ -380,6 +394,8 @@ class GyroStateObserver:
             "scale": self.scale.tolist(),
             "xhat": self.xhat.tolist(),
             "P": self.P.tolist(),
+            "rate_filters": {"x": self.xs.tolist(), "P": self.Ps.tolist(),
+                             "mu": self.mu.tolist(), "c": self.c.tolist()},
             "peak": self.peak.tolist(),
             "nu2": self.nu2.tolist(),
             "monitor": [*self.mon.tolist(), self.status, self.lost, self._auto_prior],
@@ -395,18 +411,29 @@ class GyroStateObserver:
                 f"version {state.get('version') if isinstance(state, dict) else None!r}"
             )
         tuning = ObserverTuning(**state["tuning"])
-        n = 4 + N_PAR + tuning.omega_order
+        n = 4 + N_PAR + rate.rate_block_size(tuning)
         xhat = np.array(state["xhat"], dtype=float)
         P = np.array(state["P"], dtype=float)
         if xhat.shape != (n,) or P.shape != (n, n):
             raise ValueError(
                 f"observer state has xhat {xhat.shape} and P {P.shape}; expected ({n},) and "
-                f"({n}, {n}) for omega_order={tuning.omega_order}"
+                f"({n}, {n}) for rate_model={tuning.rate_model}, omega_order="
+                f"{tuning.omega_order}"
+            )
+        rf = state["rate_filters"]
+        M = len(rate.model_names(tuning))
+        xs, Ps = np.array(rf["x"], dtype=float), np.array(rf["P"], dtype=float)
+        mu, c = np.array(rf["mu"], dtype=float), np.array(rf["c"], dtype=float)
+        if xs.shape != (M, n) or Ps.shape != (M, n, n) or mu.shape != c.shape != (M,):
+            raise ValueError(
+                f"observer state has rate filters x {xs.shape}, P {Ps.shape}, mu {mu.shape}; "
+                f"expected ({M}, {n}), ({M}, {n}, {n}), ({M},) for its rate models"
             )
         self.tuning = tuning
         self.measured_pair = MeasuredPair.of(int(state["measured_pair"]))
-        self.order = tuning.omega_order
+        self.order = rate.rate_block_size(tuning)
         self.n = n
+        self.xs, self.Ps, self.mu, self.c = xs, Ps, mu, c
         self._build(float(state["wx"]), float(state["wy"]),
                     np.array(state["theta0"], dtype=float), np.array(state["scale"], dtype=float))
         self.xhat = xhat

@@ -3,7 +3,8 @@
 - held_step: one exact held-input step of the augmented model (eq. 5) with the exact
   sensitivities of the new state to the parameters and Omega_z.
 - correct: the measurement update of eq. 8, x^ += L (Z - C x^), L from the covariance.
-- predict: propagation of x^ and P to t + h with ux, uy and Omega_z held.
+- predict: propagation of x^ and P to t + h with ux, uy and Omega_z held (predict_about:
+  linearized about another estimate, as the rate models of observer_rate share one).
 
 The filter works in a scaled state (see docs/observer-design.md); the constant data of
 one observer are an ObserverModel, its noise settings a NoiseModel. One EKF step is
@@ -203,20 +204,16 @@ def _rel_R(nu2, j, nu, peak, h, noise_rel, innov_floor, innov_tau):  # pragma: n
 
 
 @njit(cache=True)
-def correct(model, noise, x, P, peak, nu2, mon, z1, z2, h):  # pragma: no cover
-    """Measurement update (eq. 8) of x, P in place with the measured pair (z1, z2) at t.
+def noise_variances(model, noise, x, peak, nu2, z1, z2, h):  # pragma: no cover
+    """Noise variances (R0, R1) of the measured pair at t and the innovations of x.
 
-    peak (running |z|) and nu2 (innovation EWMA, < 0 before the first) are updated for
-    the relative noise mode; h (s) is the step that follows, the EWMA's time base.
-    mon (monitor accumulators, M_*) receives the step's NIS and innovations.
+    x is the (combined) prediction; peak (running |z|) and nu2 (innovation EWMA, < 0
+    before the first) are updated for the relative noise mode; h (s) is the step that
+    follows, the EWMA's time base. Returns (R0, R1, nu0, nu1).
     """
-    n = x.shape[0]
     i0 = model.i0
-    i1 = i0 + 2
-    g0 = model.hgain[0]
-    g1 = model.hgain[1]
-    nu0 = z1 - g0 * x[i0]
-    nu1 = z2 - g1 * x[i1]
+    nu0 = z1 - model.hgain[0] * x[i0]
+    nu1 = z2 - model.hgain[1] * x[i0 + 2]
     if abs(z1) > peak[0]:
         peak[0] = abs(z1)
     if abs(z2) > peak[1]:
@@ -231,13 +228,31 @@ def correct(model, noise, x, P, peak, nu2, mon, z1, z2, h):  # pragma: no cover
     else:
         R1 = _rel_R(nu2, 1, nu1, peak[1], h, noise.noise_rel, noise.innov_floor,
                     noise.innov_tau)
+    return R0, R1, nu0, nu1
+
+
+@njit(cache=True)
+def correct_with(model, joseph, x, P, z1, z2, R0, R1):  # pragma: no cover
+    """Measurement update (eq. 8) of one filter's x, P in place, noise variances given.
+
+    Returns (NIS, log det S) of its innovation nu = z - H x (S = H P H' + R, 2 dof): the
+    log-likelihood of the measurement under this filter is -(NIS + log det S)/2 - log 2 pi.
+    NIS < 0: no update (S singular: nothing to learn).
+    """
+    n = x.shape[0]
+    i0 = model.i0
+    i1 = i0 + 2
+    g0 = model.hgain[0]
+    g1 = model.hgain[1]
+    nu0 = z1 - g0 * x[i0]
+    nu1 = z2 - g1 * x[i1]
     a = P[i0, i0] * g0 * g0 + R0
     b_ = P[i0, i1] * g0 * g1
     c = P[i1, i0] * g0 * g1
     d = P[i1, i1] * g1 * g1 + R1
     det = a * d - b_ * c
     if not (det > 0.0 and a > 0.0):
-        return
+        return -1.0, 0.0
     s00, s01, s10, s11 = d / det, -b_ / det, -c / det, a / det
     PHt = np.empty((n, 2))
     K = np.empty((n, 2))
@@ -248,7 +263,7 @@ def correct(model, noise, x, P, peak, nu2, mon, z1, z2, h):  # pragma: no cover
         K[i, 0] = PHt[i, 0] * s00 + PHt[i, 1] * s10
         K[i, 1] = PHt[i, 0] * s01 + PHt[i, 1] * s11
         x[i] = x[i] + (K[i, 0] * nu0 + K[i, 1] * nu1)
-    if noise.joseph:  # (I - K H) P (I - K H)' + K R K', in O(n^2): H picks rows i0, i1
+    if joseph:  # (I - K H) P (I - K H)' + K R K', in O(n^2): H picks rows i0, i1
         M = np.empty((n, n))
         for i in range(n):
             k0 = K[i, 0] * g0
@@ -272,8 +287,25 @@ def correct(model, noise, x, P, peak, nu2, mon, z1, z2, h):  # pragma: no cover
         for i in range(n):
             for j in range(n):
                 P[i, j] -= K[i, 0] * PHt[j, 0] + K[i, 1] * PHt[j, 1]
-    # monitor: NIS = nu' S^-1 nu (2 dof) and the innovations relative to the signal
-    mon[M_NIS] += nu0 * (s00 * nu0 + s01 * nu1) + nu1 * (s10 * nu0 + s11 * nu1)
+    nis = nu0 * (s00 * nu0 + s01 * nu1) + nu1 * (s10 * nu0 + s11 * nu1)
+    return nis, math.log(det)
+
+
+@njit(cache=True)
+def monitor_innovations(model, mon, P, nu0, nu1, R0, R1):  # pragma: no cover
+    """Add one correction's innovations (of the combined prediction, covariance P) to the
+    monitor's block accumulators: NIS (2 dof), lag-1 products, squares."""
+    i0 = model.i0
+    i1 = i0 + 2
+    g0 = model.hgain[0]
+    g1 = model.hgain[1]
+    a = P[i0, i0] * g0 * g0 + R0
+    b_ = P[i0, i1] * g0 * g1
+    d = P[i1, i1] * g1 * g1 + R1
+    det = a * d - b_ * b_
+    if not (det > 0.0 and a > 0.0):
+        return
+    mon[M_NIS] += (d * nu0 * nu0 - 2.0 * b_ * nu0 * nu1 + a * nu1 * nu1) / det
     mon[M_AC] += nu0 * mon[M_PREV]  # lag-1 autocorrelation of each innovation sequence
     mon[M_AC + 1] += nu1 * mon[M_PREV + 1]
     mon[M_SQ] += nu0 * nu0
@@ -284,47 +316,103 @@ def correct(model, noise, x, P, peak, nu2, mon, z1, z2, h):  # pragma: no cover
 
 
 @njit(cache=True)
-def predict(model, x, P, F, Q, ux, uy, h):  # pragma: no cover
-    """Propagate x, P in place to t + h (eq. 5) with ux, uy and Omega_z held.
-
-    F (n x n) holds the Omega-model transition of this h and receives the step's
-    Jacobian; Q is the process noise of h (both from GyroStateObserver).
-    """
-    n = x.shape[0]
-    theta = np.empty(N_PAR)
-    for i in range(N_PAR):
-        theta[i] = model.theta0[i] + model.scale[i] * x[I_PAR + i]
-    s1, Phi, S = held_step(model, theta, x[I_OM], x[:4], ux, uy, h)
-    for i in range(4):
-        for j in range(4):
-            F[i, j] = Phi[i, j]
-        for j in range(8):
-            F[i, 4 + j] = S[i, j]
-    x_new = np.empty(n)
-    for i in range(n):
-        acc = 0.0
-        for j in range(n):
-            acc += F[i, j] * x[j]
-        x_new[i] = acc
-    x_new[:4] = s1
-    x[:] = x_new
-    FPFt = _matmul(_matmul(F, P), F.T)
-    for i in range(n):  # P = F P F' + Q, symmetrized
-        for j in range(n):
-            P[i, j] = ((FPFt[i, j] + Q[i, j]) + (FPFt[j, i] + Q[j, i])) * 0.5
+def correct(model, noise, x, P, peak, nu2, mon, z1, z2, h):  # pragma: no cover
+    """Measurement update (eq. 8) of one filter's x, P in place with (z1, z2) at t:
+    noise_variances, monitor_innovations, correct_with."""
+    R0, R1, nu0, nu1 = noise_variances(model, noise, x, peak, nu2, z1, z2, h)
+    monitor_innovations(model, mon, P, nu0, nu1, R0, R1)
+    correct_with(model, noise.joseph, x, P, z1, z2, R0, R1)
 
 
 @njit(cache=True)
-def _matmul(A, B):  # pragma: no cover
-    """A B, summed in the order k = 0, 1, ... (no BLAS: fixed rounding, small n)."""
-    out = np.empty((A.shape[0], B.shape[1]))
-    for i in range(A.shape[0]):
-        for j in range(B.shape[1]):
+def linearize(model, x, ux, uy, h):  # pragma: no cover
+    """The held step (eq. 5) of x's plant state at x's parameters and Omega_z: (s1, Phi, S)."""
+    theta = np.empty(N_PAR)
+    for i in range(N_PAR):
+        theta[i] = model.theta0[i] + model.scale[i] * x[I_PAR + i]
+    return held_step(model, theta, x[I_OM], x[:4], ux, uy, h)
+
+
+@njit(cache=True)
+def predict_about(xbar, s1, Phi, S, x, P, Fr, Qr, qpar):  # pragma: no cover
+    """Propagate one filter's x, P in place to t + h, linearized about xbar.
+
+    (s1, Phi, S) is the held step of xbar (linearize): x[:4] -> s1 + Phi (x[:4] -
+    xbar[:4]) + S (x[4:12] - xbar[4:12]); the parameters are constant (random walk of
+    variance qpar per step); the rate block x[I_OM:] -> Fr x[I_OM:] with process noise
+    Qr. P -> F P F' + Q with F's structure used (rows 4..10 are the identity), symmetrized.
+    For xbar = x this is the EKF prediction.
+    """
+    n = x.shape[0]
+    r = n - I_OM
+    d = np.empty(12)
+    for c in range(12):
+        d[c] = x[c] - xbar[c]
+    for i in range(4):
+        acc = s1[i]
+        for c in range(4):
+            acc += Phi[i, c] * d[c]
+        for c in range(8):
+            acc += S[i, c] * d[4 + c]
+        x[i] = acc
+    om = np.empty(r)
+    for a in range(r):
+        acc = 0.0
+        for c in range(r):
+            acc += Fr[a, c] * x[I_OM + c]
+        om[a] = acc
+    for a in range(r):
+        x[I_OM + a] = om[a]
+    A = np.empty((n, n))  # F P
+    for k in range(n):
+        for i in range(4):
             acc = 0.0
-            for k in range(A.shape[1]):
-                acc += A[i, k] * B[k, j]
-            out[i, j] = acc
-    return out
+            for c in range(4):
+                acc += Phi[i, c] * P[c, k]
+            for c in range(8):
+                acc += S[i, c] * P[4 + c, k]
+            A[i, k] = acc
+        for i in range(4, I_OM):
+            A[i, k] = P[i, k]
+        for a in range(r):
+            acc = 0.0
+            for c in range(r):
+                acc += Fr[a, c] * P[I_OM + c, k]
+            A[I_OM + a, k] = acc
+    B = np.empty((n, n))  # (F P) F'
+    for i in range(n):
+        for j in range(4):
+            acc = 0.0
+            for c in range(4):
+                acc += A[i, c] * Phi[j, c]
+            for c in range(8):
+                acc += A[i, 4 + c] * S[j, c]
+            B[i, j] = acc
+        for j in range(4, I_OM):
+            B[i, j] = A[i, j]
+        for a in range(r):
+            acc = 0.0
+            for c in range(r):
+                acc += A[i, I_OM + c] * Fr[a, c]
+            B[i, I_OM + a] = acc
+    for i in range(I_PAR, I_OM):
+        B[i, i] += qpar
+    for a in range(r):
+        for c in range(r):
+            B[I_OM + a, I_OM + c] += Qr[a, c]
+    for i in range(n):
+        P[i, i] = B[i, i]
+        for j in range(i):
+            v = 0.5 * (B[i, j] + B[j, i])
+            P[i, j] = v
+            P[j, i] = v
+
+
+@njit(cache=True)
+def predict(model, x, P, Fr, Qr, qpar, ux, uy, h):  # pragma: no cover
+    """EKF prediction of one filter (x, P in place) to t + h with ux, uy, Omega_z held."""
+    s1, Phi, S = linearize(model, x, ux, uy, h)
+    predict_about(x.copy(), s1, Phi, S, x, P, Fr, Qr, qpar)
 
 
 @njit(cache=True)

@@ -14,7 +14,7 @@ The compiled check (observer_kernels.check) runs after every step and judges:
   so NIS says little) the RMS innovation relative to each signal's running peak at the
   end of the block (early in a run the signal is still building up):
   above REL_LOST lost (the one-step predictions miss by that
-  fraction of the signal), a warning above REL_WARN x noise_rel.
+  fraction of the signal), a warning above REL_WARN.
 
 A lost filter raises ObserverDivergedError (a GyroFmuError) naming the cause and the
 remedies; every later step raises it again. Thresholds and measurements:
@@ -62,10 +62,11 @@ NIS_WARN_Z = 3.719
 #: Lost when the block mean NIS exceeds this (innovations ~70 sigma RMS; expected 2): a
 #: noise 10x larger than told gives ~200 (a warning), a diverged filter 1e6 and more.
 NIS_LOST = 1.0e4
-#: Relative mode: warning above REL_WARN x noise_rel (the innovations exceed the noise
-#: the observer was told: its sigmas are too small, or the noise larger than told), lost
-#: above REL_LOST, block RMS innovations relative to each signal's peak.
-REL_WARN = 1.5
+#: Relative mode (the noise estimated from the innovations): warning above REL_WARN, lost
+#: above REL_LOST, block RMS innovations relative to each signal's peak. The noise is
+#: estimated, so innovations above noise_rel are no warning; a slow misfit is caught by
+#: the whiteness test.
+REL_WARN = 0.02
 REL_LOST = 0.2
 #: Warning when an innovation sequence's lag-1 autocorrelation over a block exceeds
 #: CORR_WARN (white: 0 +- 0.07) while the mean NIS exceeds NIS_MIN: the innovations are
@@ -142,7 +143,7 @@ def limits(model: kern.ObserverModel, tuning, pair) -> tuple:
     d_max = max(2.0 * w_max, RATIO * float(model.scale[3]))
     return tuple(MonitorLimits(
         block=BLOCK, absolute=absolute, nis_warn=nis_warn, nis_lost=NIS_LOST,
-        rel_warn=REL_WARN * tuning.noise_rel, rel_lost=REL_LOST, ratio=RATIO, d_max=d_max,
+        rel_warn=REL_WARN, rel_lost=REL_LOST, ratio=RATIO, d_max=d_max,
         omega_max=w_min, corr_warn=CORR_WARN, nis_min=NIS_MIN))
 
 
@@ -203,7 +204,7 @@ def warning_message(mon, lim_t: tuple, t: float) -> str:
                 f"corrections, above its chi-square 0.9999 band ({lim.nis_warn:.3g})")
     else:
         what = (f"one-step predictions miss by {value:.3g} RMS of the signal, above "
-                f"{lim.rel_warn / REL_WARN:.3g} (noise_rel) x {REL_WARN:g}")
+                f"{lim.rel_warn:.3g}")
     return (f"observer at t={t:.6g} s: {what}: the estimates may be off (initial guesses "
             f"far, or noise larger than told)")
 

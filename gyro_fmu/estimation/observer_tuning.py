@@ -12,34 +12,56 @@ def _tuning(default: float, unit: str, description: str, **bounds: float):
                                             "min": 0.0, **bounds})
 
 
+def fields_by_name() -> dict:
+    """ObserverTuning's dataclass fields by name (their unit and description metadata)."""
+    return {f.name: f for f in fields(ObserverTuning)}
+
+
 @dataclass(frozen=True)
 class ObserverTuning:
-    """Tuning of GyroStateObserver; the defaults fit noise-free data.
+    """Tuning of GyroStateObserver; the defaults need no knowledge of the rate or the noise.
 
-    Noise convention of noise_rel: white noise with std = noise_rel x the signal's peak.
+    The rate model is adaptive and the pick-off noise is estimated from the innovations
+    (above a floor of noise_rel x each signal's peak) unless sigma_z1, sigma_z2 are given.
     Units and meaning of each field are in its metadata (they become FMU parameters).
     """
 
     noise_rel: float = _tuning(
-        1.0e-6, "1", "measurement noise std relative to the running peak of each measured "
-        "signal (used where sigma_z1, sigma_z2 are 0; a small floor for noise-free data)")
+        1.0e-6, "1", "floor of the measurement noise std relative to the running peak of "
+        "each measured signal (where sigma_z1, sigma_z2 are 0: the observer then estimates "
+        "the noise from its innovations, above this floor; 1e-6 suits noise-free data)")
     sigma_z1: float = _tuning(
         0.0, "m", "absolute measurement noise std of z1 (x; in m/s for vx when "
-        "measured_pair = 2); > 0 overrides noise_rel")
+        "measured_pair = 2); > 0 overrides the estimated noise")
     sigma_z2: float = _tuning(
         0.0, "m", "absolute measurement noise std of z2 (y; in m/s for vy when "
-        "measured_pair = 2); > 0 overrides noise_rel")
+        "measured_pair = 2); > 0 overrides the estimated noise")
     innov_floor: float = _tuning(
-        0.5, "1", "relative noise mode: the noise variance is at least innov_floor times "
-        "the running mean of the squared innovations")
+        1.0, "1", "noise estimated from the innovations (sigma_z 0): the noise variance is "
+        "at least innov_floor times the running mean of the squared innovations (1: "
+        "covariance matching)")
     innov_tau: float = _tuning(
-        1.0e-4, "s", "time constant of the running mean of the squared innovations")
+        1.0e-3, "s", "time constant of the running mean of the squared innovations")
+    rate_model: int = _tuning(
+        0, "1", "model of Omega_z(t): 0 adaptive (the observer finds from its innovations "
+        "whether the rate is constant, slow or agile: an interacting-multiple-model filter, "
+        "docs/observer-rate-model.md); 1 constant; 2 tracking (follows rate_span at "
+        "rate_bandwidth); 3 expert (q_Omega on the omega_order-th derivative)", max=3)
+    rate_bandwidth: float = _tuning(
+        150.0, "Hz", "fastest rate motion to follow (rate_model 0 and 2): the agile model "
+        "follows a sine of amplitude rate_span at this frequency, the slow model at a tenth")
+    rate_span: float = _tuning(
+        1.0, "rad/s", "amplitude of the rate motion to follow at rate_bandwidth (rate_model "
+        "0 and 2)")
+    rate_dwell: float = _tuning(
+        10.0, "s", "rate_model 0: mean time the rate keeps one behaviour (constant, slow, "
+        "agile) before it may switch")
     q_Omega: float = _tuning(
-        1.0e9, "rad2/s5", "spectral density of the white noise driving the highest "
-        "derivative of Omega_z (unit for omega_order 2; rad2/s3 for 1, rad2/s7 for 3): "
-        "the rate-tracking bandwidth")
+        1.0e9, "rad2/s5", "rate_model 3 only: spectral density of the white noise driving "
+        "the omega_order-th derivative of Omega_z (unit for omega_order 2; rad2/s3 for 1, "
+        "rad2/s7 for 3)")
     omega_order: int = _tuning(
-        2, "1", "model of Omega_z: 1 random walk, 2 integrated random walk, 3 twice "
+        2, "1", "rate_model 3 only: 1 random walk, 2 integrated random walk, 3 twice "
         "integrated random walk", min=1, max=3)
     q_param_rel: float = _tuning(
         0.0, "1/s", "random-walk spectral density of the relative parameter deviations "
@@ -70,7 +92,7 @@ class ObserverTuning:
     def __post_init__(self) -> None:
         for f in fields(self):
             v = getattr(self, f.name)
-            if f.name in ("joseph", "omega_order"):
+            if f.name in ("joseph", "omega_order", "rate_model"):
                 continue
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0.0):
                 raise ValueError(
@@ -81,6 +103,17 @@ class ObserverTuning:
                 f"ObserverTuning.omega_order={self.omega_order!r}: use 1 (random walk), "
                 "2 (integrated random walk) or 3"
             )
+        if self.rate_model not in (0, 1, 2, 3):
+            raise ValueError(
+                f"ObserverTuning.rate_model={self.rate_model!r}: use 0 (adaptive), 1 "
+                "(constant), 2 (tracking at rate_bandwidth) or 3 (expert: q_Omega, omega_order)"
+            )
+        for name in ("rate_bandwidth", "rate_span", "rate_dwell"):
+            if getattr(self, name) <= 0.0:
+                raise ValueError(
+                    f"ObserverTuning.{name}={getattr(self, name)!r} must be > 0 (its unit: "
+                    f"{fields_by_name()[name].metadata['unit']})"
+                )
         if self.noise_rel <= 0.0 and (self.sigma_z1 <= 0.0 or self.sigma_z2 <= 0.0):
             raise ValueError(
                 f"ObserverTuning.noise_rel={self.noise_rel!r}: give noise_rel > 0 "

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..cosim.master import CoSimulationResult
 from ..estimation.observer import GyroStateObserver, ObserverTuning
+from ..estimation.observer_rate import RATE_KINDS
 from ..model.parameters import GyroParameters
 from ..model.plant import MEASURED, GyroPlantModel, MeasurementNoise
 from .scenario import Scenario, absolute_noise, observer_tuning
@@ -24,6 +25,7 @@ def observer_columns() -> list[str]:
         *(f"observer.{s}_hat" for s in MEASURED),
         *(f"observer.{hat.get(n, n + '_hat')}" for n in ESTIMATED),
         *(f"observer.sigma_{n}" for n in ESTIMATED),
+        *(f"observer.p_rate_{k}" for k in RATE_KINDS),
     ]
 
 
@@ -56,6 +58,7 @@ def run_inprocess(sc: Scenario, noise: MeasurementNoise | None = None) -> CoSimu
         row[4:8] = z
         row[8:10] = plant.accelerations()
         row[10:30] = observer.output_row()
+        row[30:33] = list(observer.rate_probabilities().values())
         if k == sc.n_steps:
             break
         plant.step(ux, 0.0, Om, h)

@@ -176,14 +176,11 @@ def absolute_noise(sc: Scenario, states: np.ndarray | None = None) -> Measuremen
     return MeasurementNoise(*(float(sc.noise * p) for p in peaks))
 
 
-#: Rate model for a rate declared constant: a random walk of zero intensity, i.e. exactly
-#: the constant the Cramer-Rao bound assumes. The default (integrated random walk,
-#: q_Omega 1e9) is sized for the patent's 100 Hz sine; on a constant rate it threw
-#: information away: Omega errors 2-10x the bound at noise 1e-6..1e-4, against
-#: 0.66-1.04x with this model (benchmarks/observer_efficiency.py, 8-16 seeds). The
-#: price: the observer then does not follow rate changes, which the user ruled out.
-Q_OMEGA_CONSTANT_RATE = 0.0
-OMEGA_ORDER_CONSTANT_RATE = 1
+#: Rate model for a rate declared constant: exactly the constant the Cramer-Rao bound
+#: assumes (ObserverTuning rate_model 1). The FMU's default, the adaptive rate model,
+#: comes within a few percent of it on a constant rate (docs/observer-rate-model.md)
+#: and also follows a moving one; a user who knows the rate is constant says so.
+RATE_MODEL_CONSTANT_RATE = 1
 
 
 def observer_tuning(sc: Scenario, noise: MeasurementNoise) -> dict[str, float]:
@@ -198,8 +195,7 @@ def observer_tuning(sc: Scenario, noise: MeasurementNoise) -> dict[str, float]:
         z1, z2 = ("x", "y") if sc.measured_pair == 1 else ("vx", "vy")
         tuning["sigma_z1"], tuning["sigma_z2"] = getattr(noise, z1), getattr(noise, z2)
     if sc.rate.kind is RateKind.constant:
-        tuning["q_Omega"] = Q_OMEGA_CONSTANT_RATE
-        tuning["omega_order"] = OMEGA_ORDER_CONSTANT_RATE
+        tuning["rate_model"] = RATE_MODEL_CONSTANT_RATE
     return {**tuning, **dict(sc.tuning)}
 
 

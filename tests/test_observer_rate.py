@@ -1,0 +1,163 @@
+"""The observer's adaptive rate model (observer_rate): it finds how fast the rate moves.
+
+Default tuning throughout (rate_model 0, the noise not told: estimated from the
+innovations), on a gyro that is no preset, data from the project's plant with white
+noise of std = noise x each signal's peak. Tolerances are the issue's targets (2x the
+Cramer-Rao bound for a constant rate, 3 % RMS for the patent's 100 Hz sine) measured
+with margin on these seeds; docs/observer-rate-model.md has the full tables.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from gyro_fmu.estimation import observer_rate as rate
+from gyro_fmu.estimation.observer import GyroStateObserver, ObserverTuning
+from gyro_fmu.model.parameters import GyroParameters
+from gyro_fmu.model.plant import GyroPlantModel
+from gyro_fmu.model.rate import RateKind, RateProfile
+from gyro_fmu.system.scenario import absolute_noise, scenario
+
+FACTORS = {"kxx": 1.07, "kyy": 0.94, "kxy": 1.25, "dxx": 0.85, "dyy": 1.15, "dxy": 0.9,
+           "m": 1.03}
+H = 5e-6
+
+
+def _run(profile: RateProfile, noise: float, n: int, seed: int = 0, **tuning):
+    base = scenario("default").params
+    sc = scenario("default", overrides={k: getattr(base, k) * f for k, f in FACTORS.items()},
+                  noise=noise, seed=seed, rate=profile, stop_time=n * H)
+    plant = GyroPlantModel(sc.params, absolute_noise(sc), seed)
+    obs = GyroStateObserver(GyroParameters(**sc.initial_guess), 0.0, 1,
+                            ObserverTuning(**tuning))
+    om, truth, sig, p = (np.empty(n) for _ in range(4))
+    for k in range(n):
+        ux, Om = sc.the_drive.ux(k * H), profile.Omega_z(k * H)
+        z = plant.measured()
+        plant.step(ux, 0.0, Om, H)
+        obs.step(ux, 0.0, z[0], z[2], H)
+        om[k], sig[k] = obs.estimates()["Omega_z"], obs.sigmas()["Omega_z"]
+        truth[k] = profile.Omega_z((k + 1) * H)
+        p[k] = obs.rate_probabilities()["agile"]
+    return om, truth, sig, p, obs
+
+
+def test_a_constant_rate_is_found_constant_and_estimated_as_well_as_by_the_constant_model():
+    """Noise 1e-4, 40 ms, 3 seeds: P(constant) > 0.9, the error within 3 sigmas, and the
+    RMS error within 1.25x that of the exactly-constant model on the same data (measured
+    1.00-1.02x)."""
+    const = RateProfile(RateKind.constant, offset=1.0)
+    e_adapt, e_const = [], []
+    for seed in range(3):
+        om, truth, sig, _, obs = _run(const, 1e-4, 8000, seed)
+        assert obs.rate_probabilities()["constant"] > 0.9, obs.rate_probabilities()
+        assert abs(om[-1] - 1.0) <= 3 * sig[-1]
+        e_adapt.append(om[-1] - 1.0)
+        om1, *_ = _run(const, 1e-4, 8000, seed, rate_model=1)
+        e_const.append(om1[-1] - 1.0)
+    ratio = math.sqrt(np.mean(np.square(e_adapt)) / np.mean(np.square(e_const)))
+    assert ratio <= 1.25, (e_adapt, e_const)
+
+
+def test_the_patents_100_hz_sine_is_tracked_at_default_settings():
+    """sin(2 pi 100 t), noise 1e-5, 60 ms: RMS error over 40-60 ms below 3 % of the peak
+    (the issue measured 4.2-5.3 % with the former default q_Omega 1e9), the agile model
+    chosen, the error within 3 sigmas RMS."""
+    om, truth, sig, p, _ = _run(RateProfile(RateKind.sine, offset=0.0, amplitude=1.0,
+                                            frequency=100.0), 1e-5, 12000)
+    w = slice(8000, 12000)
+    rms = math.sqrt(np.mean((om[w] - truth[w]) ** 2))
+    assert rms < 0.03, rms
+    assert p[-1] > 0.9
+    assert math.sqrt(np.mean(((om[w] - truth[w]) / sig[w]) ** 2)) < 3.0
+
+
+def test_a_rate_that_starts_moving_is_followed_within_milliseconds():
+    """Constant 1 rad/s, then a 100 Hz sine of 1 rad/s from 30 ms (noise 1e-5): the agile
+    model takes over within 3 ms (measured ~2 ms) and the error is back below 5 % RMS
+    over 40-50 ms."""
+    profile = RateProfile(RateKind.sine, offset=1.0, amplitude=1.0, frequency=100.0,
+                          t_start=0.03)
+    om, truth, _, p, _ = _run(profile, 1e-5, 10000)
+    assert p[5000] < 0.1  # 25 ms: constant
+    assert p[6600] > 0.9, p[6000:6600:50]  # 33 ms
+    w = slice(8000, 10000)
+    assert math.sqrt(np.mean((om[w] - truth[w]) ** 2)) < 0.05
+
+
+def test_mixture_and_mixing_equal_their_definitions():
+    """combine: mean and covariance of a Gaussian mixture (with the spread of the means);
+    mix: each filter restarted from the mixture weighted by mu_i Pi[i, j] / c_j; identical
+    filters mix to themselves."""
+    rng = np.random.default_rng(0)
+    M, n = 3, 5
+    xs = rng.standard_normal((M, n))
+    A = rng.standard_normal((M, n, n))
+    Ps = np.einsum("mij,mkj->mik", A, A)
+    w = np.array([0.2, 0.5, 0.3])
+    x, P = np.empty(n), np.empty((n, n))
+    rate.combine(xs, Ps, w, x, P)
+    mean = w @ xs
+    cov = sum(w[j] * (Ps[j] + np.outer(xs[j] - mean, xs[j] - mean)) for j in range(M))
+    np.testing.assert_allclose(x, mean, rtol=1e-14)
+    np.testing.assert_allclose(P, cov, rtol=1e-13)
+    Pi = np.array([[0.9, 0.05, 0.05], [0.1, 0.8, 0.1], [0.0, 0.3, 0.7]])
+    mu = np.array([0.6, 0.3, 0.1])
+    c = np.empty(M)
+    x2, P2 = xs.copy(), Ps.copy()
+    rate.mix(x2, P2, mu, Pi, c)
+    np.testing.assert_allclose(c, Pi.T @ mu, rtol=1e-15)
+    for j in range(M):
+        wj = Pi[:, j] * mu / c[j]
+        m = wj @ xs
+        np.testing.assert_allclose(x2[j], m, rtol=1e-13)
+        cj = sum(wj[i] * (Ps[i] + np.outer(xs[i] - m, xs[i] - m)) for i in range(M))
+        np.testing.assert_allclose(P2[j], cj, rtol=1e-12)
+    same_x, same_P = np.tile(xs[0], (M, 1)), np.tile(Ps[0], (M, 1, 1))
+    rate.mix(same_x, same_P, mu, Pi, c)
+    np.testing.assert_allclose(same_x, np.tile(xs[0], (M, 1)), rtol=1e-14)
+    np.testing.assert_allclose(same_P, np.tile(Ps[0], (M, 1, 1)), rtol=1e-13)
+
+
+def test_the_rate_processes_and_their_switching():
+    """Transitions and noise of the three models over h; rows of Pi sum to 1; the mean
+    time in a model is rate_dwell."""
+    tun = ObserverTuning()
+    Fr, Qr, Pi = rate.rate_models(tun, H)
+    assert Fr.shape == Qr.shape == (3, 3, 3)
+    np.testing.assert_array_equal(Fr[0], np.diag([1.0, 0.0, 0.0]))  # constant
+    assert not Qr[0].any()
+    np.testing.assert_allclose(Fr[1], [[1, H, 0], [0, 1, 0], [0, 0, 0]])  # slow: order 2
+    q2 = rate.intensity(2, tun.rate_span, tun.rate_bandwidth / rate.SLOW_FRACTION)
+    np.testing.assert_allclose(Qr[1][:2, :2], q2 * np.array([[H**3 / 3, H**2 / 2],
+                                                            [H**2 / 2, H]]), rtol=1e-14)
+    q3 = rate.intensity(3, tun.rate_span, tun.rate_bandwidth)
+    assert Qr[2][2, 2] == pytest.approx(q3 * H, rel=1e-14)
+    np.testing.assert_allclose(Pi.sum(axis=1), 1.0, rtol=1e-15)
+    assert 1.0 - Pi[0, 0] == pytest.approx(H / tun.rate_dwell, rel=1e-5)
+    # 150 Hz at 1 rad/s on the 3rd derivative: 1 * (2 pi 150)^5 / (2 pi)
+    assert q3 == pytest.approx((2 * math.pi * 150.0) ** 5 / (2 * math.pi), rel=1e-12)
+
+
+@pytest.mark.parametrize("rate_model, n, names", [
+    (0, 14, ("constant", "slow", "agile")), (1, 12, ("constant",)),
+    (2, 14, ("tracking",)), (3, 13, ("expert",))])
+def test_each_rate_model_runs_and_reports_its_probabilities(rate_model, n, names):
+    obs = GyroStateObserver(scenario("default").params, 0.0, 1,
+                            ObserverTuning(rate_model=rate_model))
+    assert obs.n == n and obs.rate_models == names
+    p = obs.rate_probabilities()
+    assert set(p) == {"constant", "slow", "agile"}
+    assert sum(p.values()) == pytest.approx({0: 1.0, 1: 1.0, 2: 1.0, 3: 0.0}[rate_model])
+
+
+@pytest.mark.parametrize("field, value, words", [
+    ("rate_model", 4, "use 0 (adaptive)"), ("rate_bandwidth", 0.0, "unit: Hz"),
+    ("rate_span", -1.0, "must be a finite number >= 0"), ("rate_dwell", 0.0, "unit: s")])
+def test_bad_rate_tuning_is_refused_by_name(field, value, words):
+    with pytest.raises(ValueError, match=field) as exc:
+        ObserverTuning(**{field: value})
+    assert words in str(exc.value)
