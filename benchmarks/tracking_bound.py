@@ -23,8 +23,10 @@ For each case:
   lost      seeds where the observer declared itself lost (left out of obs err).
 
 Tunings: "user" = ObserverTuning() defaults with the noise std told (sigma_z1, sigma_z2),
-what an FMU user gets, plus the --tuning NAME=VALUE overrides; for constant rates also
-"scenario" = gyro_fmu.system.scenario.observer_tuning (the constant-rate model).
+plus the --tuning NAME=VALUE overrides; "fmu" = ObserverTuning() defaults plus the
+overrides, the noise not told (estimated from the innovations since the adaptive rate
+model; exactly what an FMU user gets); for constant rates also "scenario" =
+gyro_fmu.system.scenario.observer_tuning (the constant-rate model, noise told).
 
     python benchmarks/tracking_bound.py [--seeds 32] [--noise 1e-5 1e-4] [--tuning q_Omega=1e8]
                                         [--random]
@@ -151,7 +153,7 @@ def main() -> None:
             bound = tracking_bound_for_scenario(sc, user, rate=rate_model, t_eval=t_eval,
                                                 n_draws=args.draws)
             b = bound.rms_sigma(*window)
-            tunings = [("user", user)]
+            tunings = [("user", user), ("fmu", ObserverTuning(**overrides))]
             if profile is not None and profile.kind.name == "constant":
                 tunings.append(("scenario", ObserverTuning(**observer_tuning(sc, std))))
             for tname, tun in tunings:

@@ -228,7 +228,7 @@ def integrated_random_walk_rate(h: float, n_steps: int, q: float, sigma0_Omega: 
                                 sigma0_rate: float, mean: float = 0.0,
                                 knot_step: int = 20) -> RateModel:
     """Omega = mean + integrated random walk: dOmega/dt is a Wiener process of intensity
-    q (rad^2/s^3), Omega(0) ~ N(0, sigma0_Omega^2), dOmega/dt(0) ~ N(0, sigma0_rate^2).
+    q (rad^2/s^5), Omega(0) ~ N(0, sigma0_Omega^2), dOmega/dt(0) ~ N(0, sigma0_rate^2).
 
     Sampled every knot_step steps (state [Omega, dOmega/dt dt] per knot) and held.
     """
