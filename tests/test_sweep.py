@@ -146,18 +146,25 @@ def test_deadline_for_95_percent_of_the_lot():
     assert _result([]).deadline_for()["deadline_for_fraction_s"] is None
 
 
-def test_fmu_default_rate_tuning_puts_back_the_observer_defaults():
+def test_fmu_tunings_put_back_the_observer_defaults():
     from gyro_fmu.estimation.observer_tuning import ObserverTuning
+    from gyro_fmu.system.scenario import absolute_noise, observer_tuning
 
-    scen = SweepSpec().base_scenario()
-    fmu = SweepSpec(rate_tuning="fmu-defaults").base_scenario()
-    assert dict(scen.tuning) == {}  # observer_tuning chooses the constant-rate model
-    assert fmu.tuning["q_Omega"] == ObserverTuning().q_Omega
-    assert fmu.tuning["omega_order"] == ObserverTuning().omega_order
-    user = SweepSpec(rate_tuning="fmu-defaults", tuning={"q_Omega": 5.0}).base_scenario()
-    assert user.tuning["q_Omega"] == 5.0  # --tuning wins
+    d = ObserverTuning()
+    scen = SweepSpec(noise=1e-4).base_scenario()
+    told = observer_tuning(scen, absolute_noise(scen))  # constant-rate model, noise told
+    assert told["sigma_z1"] > 0 and set(told) - {"sigma_z1", "sigma_z2"}
+    rate = SweepSpec(noise=1e-4, observer_tuning="fmu-rate").base_scenario()
+    assert set(rate.tuning) == set(told) - {"sigma_z1", "sigma_z2"}
+    assert all(v == getattr(d, k) for k, v in rate.tuning.items())
+    fmu = SweepSpec(noise=1e-4, observer_tuning="fmu").base_scenario()
+    assert set(fmu.tuning) == set(told)
+    assert observer_tuning(fmu, absolute_noise(fmu)) == {k: getattr(d, k) for k in told}
+    key = next(iter(rate.tuning))
+    user = SweepSpec(observer_tuning="fmu", tuning={key: 3}).base_scenario()
+    assert user.tuning[key] == 3  # --tuning wins
     with pytest.raises(ValueError):
-        SweepSpec(rate_tuning="adaptive-ish")
+        SweepSpec(observer_tuning="adaptive-ish")
 
 
 def test_a_heavy_proof_mass_gives_the_same_gyro_and_bound(models_dir):

@@ -245,14 +245,15 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
                      Omega_z=sc.rate.Omega_z(0.0), stop_time=sc.stop_time
                      if args.stop_time is not None else 0.08, deadline=args.deadline,
                      step=sc.step, measured_pair=sc.measured_pair, noise_seed=sc.seed,
-                     tuning=dict(sc.tuning), rate_tuning=args.rate_tuning, drive=sc.drive)
+                     tuning=dict(sc.tuning), observer_tuning=args.observer_tuning,
+                     drive=sc.drive)
     res = run_sweep(spec, Path(args.models), scheduler=args.scheduler, n_workers=args.workers)
     paths = write_outputs(res, Path(args.out), figures=not args.no_figures)
     s = res.summary()
     conv = s["convergence_time_s"]
     print(f"{s['n']} gyros ({s['ok']} ok, {s['failed']} failed) in {s['wall_s']:.0f} s on "
           f"{s['n_workers']} workers: {s['gyros_per_minute']:.1f} gyros/min "
-          f"(observer rate tuning: {spec.rate_tuning})")
+          f"(observer tuning: {spec.observer_tuning})")
     def ms(v: float | None) -> str:
         return "n/a" if v is None else f"{v * 1e3:.2f} ms"
 
@@ -427,10 +428,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="folder of our FMUs (default ./models)")
     sw.add_argument("--out", default="runs/sweep", help="output folder")
     sw.add_argument("--no-figures", action="store_true", help="skip the histograms")
-    sw.add_argument("--rate-tuning", dest="rate_tuning", choices=("scenario", "fmu-defaults"),
-                    default="scenario", help="observer rate model: the scenario's tuning for "
-                    "a constant rate (default) or the observer FMU's own defaults; --tuning "
-                    "overrides either")
+    sw.add_argument("--observer-tuning", dest="observer_tuning",
+                    choices=("scenario", "fmu-rate", "fmu"), default="scenario",
+                    help="scenario: the constant-rate model and the noise stds told "
+                    "(default); fmu-rate: the FMU's default rate model, noise told; fmu: the "
+                    "FMU's defaults (rate model and noise estimation); --tuning overrides")
     sw.set_defaults(func=_cmd_sweep)
 
     s = sub.add_parser("ssp", parents=[common],

@@ -59,10 +59,12 @@ DEADLINE_FRACTION = 0.95
 #: Gaussian draws per gyro for the joint probabilities of an efficient estimator.
 JOINT_DRAWS = 20000
 
-#: How the observer models the rate: "scenario" = gyro_fmu.system.scenario.observer_tuning
-#: for the scenario's constant rate; "fmu-defaults" = the rate settings of that tuning
-#: put back to the observer FMU's own defaults (the pick-off noise stays told).
-RATE_TUNINGS = ("scenario", "fmu-defaults")
+#: What the observer is told, before SweepSpec.tuning: "scenario" = what
+#: gyro_fmu.system.scenario.observer_tuning sets for the scenario (the constant-rate
+#: model and the pick-off noise stds); "fmu-rate" = the same with its rate settings put
+#: back to the observer FMU's defaults (the noise stays told); "fmu" = the FMU's
+#: defaults for everything observer_tuning sets (rate model and noise estimation).
+OBSERVER_TUNINGS = ("scenario", "fmu-rate", "fmu")
 
 
 @dataclass(frozen=True)
@@ -128,13 +130,13 @@ class SweepSpec:
     measured_pair: int = 1
     noise_seed: int = 1000  #: gyro i gets noise seed noise_seed + i
     tuning: Mapping[str, float] = field(default_factory=dict)
-    rate_tuning: Literal["scenario", "fmu-defaults"] = "scenario"
+    observer_tuning: Literal["scenario", "fmu-rate", "fmu"] = "scenario"
     drive: TwoToneDrive | None = None  #: None: the preset's default tones
 
     def __post_init__(self) -> None:
-        if self.rate_tuning not in RATE_TUNINGS:
-            raise ParameterError(f"rate_tuning must be one of {RATE_TUNINGS}, not "
-                                 f"{self.rate_tuning!r}")
+        if self.observer_tuning not in OBSERVER_TUNINGS:
+            raise ParameterError(f"observer_tuning must be one of {OBSERVER_TUNINGS}, not "
+                                 f"{self.observer_tuning!r}")
 
     @property
     def the_deadline(self) -> float:
@@ -147,8 +149,9 @@ class SweepSpec:
             "default", preset=self.tolerances.preset, stop_time=self.stop_time, step=self.step,
             noise=self.noise, measured_pair=self.measured_pair, drive=self.drive,
             rate=RateProfile(RateKind.constant, offset=self.Omega_z))
-        return sc.with_(tuning={**fmu_default_rate_tuning(sc), **self.tuning}
-                        if self.rate_tuning == "fmu-defaults" else dict(self.tuning))
+        reset = {} if self.observer_tuning == "scenario" else \
+            fmu_default_tuning(sc, noise_too=self.observer_tuning == "fmu")
+        return sc.with_(tuning={**reset, **self.tuning})
 
     def scenario_for(self, i: int, drawn: Mapping[str, float]) -> Scenario:
         return self.base_scenario().with_(
@@ -156,8 +159,9 @@ class SweepSpec:
             initial=self.tolerances.nominal, seed=self.noise_seed + i)
 
 
-def fmu_default_rate_tuning(sc: Scenario) -> dict[str, float]:
-    """The rate settings observer_tuning makes for sc, at the observer FMU's defaults."""
+def fmu_default_tuning(sc: Scenario, noise_too: bool = False) -> dict[str, float]:
+    """What observer_tuning sets for sc (its rate settings; with noise_too, the noise
+    stds too), at the observer FMU's own defaults."""
     from dataclasses import fields
 
     from ..estimation.observer_tuning import ObserverTuning
@@ -165,8 +169,11 @@ def fmu_default_rate_tuning(sc: Scenario) -> dict[str, float]:
     from .scenario import observer_tuning
 
     defaults = {f.name: getattr(ObserverTuning(), f.name) for f in fields(ObserverTuning)}
-    # with the noise off, observer_tuning sets only what it chooses for the rate
-    chosen = observer_tuning(sc.with_(tuning={}), MeasurementNoise())
+    # with the noise off observer_tuning sets only its rate settings; a unit noise shows
+    # which settings it makes from the noise
+    chosen = observer_tuning(sc.with_(tuning={}),
+                             MeasurementNoise(1.0, 1.0, 1.0, 1.0) if noise_too
+                             else MeasurementNoise())
     return {k: defaults[k] for k in chosen if k in defaults}
 
 
