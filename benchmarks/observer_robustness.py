@@ -28,9 +28,9 @@ time of the thread (time.thread_time: a busy machine's preemption is not the obs
 
 With --consistency SEEDS: instead, RMS of error/sigma per unknown, pooled over samples
 every 1 ms from 100 to 300 ms and over SEEDS seeds, default scenario at noise 1e-4
-(absolute noise stds told), with the scenario's constant-rate model and with the FMU's
-default rate model (integrated random walk, q_Omega 1e9), and the FMU's defaults told
-the noise only as noise_rel 1e-4 (relative mode); a consistent filter gives 1.
+with the scenario's tuning (constant-rate model, absolute noise stds told), the adaptive
+rate model told the noise, and the FMU's defaults (adaptive, the noise estimated from the
+innovations); a consistent filter gives 1.
 """
 
 from __future__ import annotations
@@ -81,8 +81,8 @@ def one_run(h: float, om0: float, err: float, ms: float, tuning: str, noise: flo
             peak = np.maximum(peak, np.abs(clean.s))
         std = MeasurementNoise(*(float(noise * p) for p in peak))
     plant = GyroPlantModel(truth, std, seed)
-    tun = {} if tuning == "fmu-default" else {"q_Omega": 0.0, "omega_order": 1}
-    if noise > 0.0:
+    tun = {} if tuning == "fmu-default" else {"rate_model": 1}
+    if noise > 0.0 and tuning != "fmu-default":  # the FMU's defaults are told nothing
         tun.update(sigma_z1=std.x, sigma_z2=std.y)
     obs = GyroStateObserver(guess, om0, 1, ObserverTuning(**tun))
     times = []
@@ -125,10 +125,9 @@ def consistency(seeds: int) -> None:
     from gyro_fmu.system.run import estimate_column
 
     models = {"constant-rate (scenario)": {},
-              "FMU default rate model": {"q_Omega": 1e9, "omega_order": 2},
-              "FMU defaults, noise_rel 1e-4": {"q_Omega": 1e9, "omega_order": 2,
-                                               "sigma_z1": 0.0, "sigma_z2": 0.0,
-                                               "noise_rel": 1e-4}}
+              "adaptive, noise told": {"rate_model": 0},
+              "FMU defaults (nothing told)": {"rate_model": 0, "sigma_z1": 0.0,
+                                              "sigma_z2": 0.0}}
     names = ("Omega_z", *PARAMETER_NAMES)
     print(f"error/sigma RMS over 100-300 ms (every 1 ms), {seeds} seeds, noise 1e-4, "
           "default scenario")
@@ -159,8 +158,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--ms", type=float, default=20.0, help="run length, ms")
     ap.add_argument("--tuning", choices=("scenario", "fmu-default"), default="scenario",
-                    help="scenario: constant-rate model (q_Omega 0, omega_order 1), as "
-                    "gyro-fmu run; fmu-default: the FMU's defaults")
+                    help="scenario: constant-rate model (rate_model 1) told the noise, as "
+                    "gyro-fmu run; fmu-default: the FMU's defaults (adaptive rate model, "
+                    "noise estimated, nothing told)")
     ap.add_argument("--noise", type=float, default=0.0, help="noise std / signal peak")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--steps", type=float, nargs="*", default=list(STEPS_US),
