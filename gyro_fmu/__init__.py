@@ -18,6 +18,9 @@ import importlib
 
 __version__ = "0.2.0"
 
+# Many FMUs in one process, each shipping this package: fmu/shipped_copies.py
+importlib.import_module("gyro_fmu.fmu.shipped_copies").install()
+
 _EXPORTS = {
     "scenario": "gyro_fmu.system.scenario",
     "Scenario": "gyro_fmu.system.scenario",

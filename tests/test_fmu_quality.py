@@ -182,3 +182,32 @@ def test_a_different_gyro_fmu_in_the_host_is_reported(models_dir, monkeypatch):
     assert "rebuild the FMUs" in text
     assert other.step(H) == 0  # a warning, not a failure
     other.close()
+
+
+_ONE_AFTER_ANOTHER = """
+import sys
+import fmpy
+for name, var in (("RateProfile", "Omega_z"), ("GyroPlant", "x"), ("GyroObserver", "Omega_hat"),
+                  ("TwoToneDrive", "ux")):
+    r = fmpy.simulate_fmu(sys.argv[1] + "/" + name + ".fmu", stop_time=1e-4,
+                          output_interval=5e-6)
+    print(name, r[var][-1])
+"""
+
+
+def test_a_python_host_simulates_our_fmus_one_after_another(models_dir, tmp_path):
+    """fmpy.simulate_fmu of RateProfile, then GyroPlant, GyroObserver, TwoToneDrive in one
+    fresh process: each FMU ships gyro_fmu, the first one's folder is deleted after its
+    run, and the second failed with "Failed to instantiate model" until
+    gyro_fmu/fmu/shipped_copies.py found the submodules in the living copy."""
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    proc = subprocess.run([sys.executable, "-c", _ONE_AFTER_ANOTHER, str(models_dir)],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=300, env=env)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    lines = proc.stdout.split("\n")
+    assert [ln.split()[0] for ln in lines if ln] == ["RateProfile", "GyroPlant",
+                                                    "GyroObserver", "TwoToneDrive"]
