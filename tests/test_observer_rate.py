@@ -52,7 +52,7 @@ def test_a_constant_rate_is_found_constant_and_estimated_as_well_as_by_the_const
     const = RateProfile(RateKind.constant, offset=1.0)
     e_adapt, e_const = [], []
     for seed in range(3):
-        om, truth, sig, _, obs = _run(const, 1e-4, 8000, seed)
+        om, _, sig, _, obs = _run(const, 1e-4, 8000, seed)
         assert obs.rate_probabilities()["constant"] > 0.9, obs.rate_probabilities()
         assert abs(om[-1] - 1.0) <= 3 * sig[-1]
         e_adapt.append(om[-1] - 1.0)
