@@ -430,6 +430,11 @@ def allan_study(rec: Record, cfg: SpecConfig) -> dict:
         "arw_tau_range_s": arw["tau_range"],
         "adev_at_1s_rad_s": None if N is None else N,
         "noise_figures_refused": refused,
+        # properties of this record's Allan deviation, whether or not it is a noise figure
+        "record_adev_min_rad_s": bi["adev_min"],
+        "record_adev_min_tau_s": bi["tau_min"],
+        "record_adev_at_1s_rad_s": (float(np.interp(0.0, np.log(taus), adev))
+                                    if taus[0] <= 1.0 <= taus[-1] else None),
         "bias_instability_rad_s": B,
         "bias_instability_deg_h": None if B is None else B * DEG_PER_H,
         "bias_instability_resolved": bi["resolved"],

@@ -53,7 +53,7 @@ def config_from(args: argparse.Namespace):
     values: dict[str, object] = {
         "preset": args.preset,
         "overrides": _name_values(args.set, "--set", PARAMETER_NAMES, "kxy=5e7"),
-        "tuning": _name_values(args.tuning, "--tuning", tuning_names, "q_Omega=1e8"),
+        "tuning": _name_values(args.tuning, "--tuning", tuning_names, "rate_model=2"),
     }
     if args.noise is not None and args.noise_density is not None:
         raise ParameterError("give --noise (relative) or --noise-density (m/sqrt(Hz)), "
@@ -120,7 +120,11 @@ def print_spec(s: dict) -> None:
     print(f"  start-up time        {a['startup_time_s']:.3g} s   (to +-{a['startup_band_rad_s']:g}"
           f" rad/s, output averaged over {w:.3g} s; {inside})")
     if a["noise_figures_refused"]:
-        print(f"  n/a: {a['noise_figures_refused']}")
+        at1 = a.get("record_adev_at_1s_rad_s")
+        print(f"  n/a: {a['noise_figures_refused']}. This record's Allan deviation, for what "
+              f"it is: minimum {a['record_adev_min_rad_s']:.3g} rad/s at tau "
+              f"{a['record_adev_min_tau_s']:.3g} s" + ("" if at1 is None else
+                                                       f", {at1:.3g} rad/s at tau = 1 s"))
     for w in s["warnings"]:
         print(f"note: {w}", file=sys.stderr)
 
@@ -194,9 +198,10 @@ def spec_figure(s: dict, path: Path) -> Path:
 
     p = ax[1, 1]
     su = s.get("_startup_trace")
-    if su:
+    if su and abs(a["startup_window_s"] - 1e-3) > 1e-6:
         p.plot(su["t_s_1ms"], su["error_rad_s_1ms"], "-", color="0.65", lw=0.6,
                label="error averaged over 1 ms")
+    if su:
         p.plot(su["t_s"], su["error_rad_s"], "k-", lw=0.8,
                label=f"error averaged over {a['startup_window_s']:.3g} s")
     band = a["startup_band_rad_s"]
@@ -263,7 +268,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     help="override a gyro parameter (kxx, kyy, kxy: 1/s2; dxx, dyy, dxy: "
                          "1/s; m: kg); repeatable")
     sp.add_argument("--tuning", action="append", metavar="NAME=VALUE",
-                    help="observer tuning field (ObserverTuning), e.g. q_Omega=1e8; "
+                    help="observer tuning field (ObserverTuning), e.g. rate_model=2; "
                          "repeatable")
     sp.add_argument("--noise", type=float,
                     help="pick-off noise std as a fraction of each signal's peak "
