@@ -175,7 +175,7 @@ def test_a_heavy_proof_mass_gives_the_same_gyro_and_bound(models_dir):
     rows = []
     for over in ({}, {"m": 0.5}):
         spec = SweepSpec(tolerances=ToleranceModel(overrides=over, seed=2), n=1,
-                         stop_time=0.01, noise=1e-4)
+                         stop_time=0.01, noise=1e-4, batch=True)
         rows.append(run_gyro(0, spec.tolerances.draw(1)[0], spec, str(models_dir)))
     a, b = rows
     assert a["status"] == b["status"] == "ok", (a["reason"], b["reason"])
@@ -186,3 +186,9 @@ def test_a_heavy_proof_mass_gives_the_same_gyro_and_bound(models_dir):
                                                           rel=1e-5, abs=1e-6), name
         assert b[f"p_eff_{name}"] == pytest.approx(a[f"p_eff_{name}"], rel=1e-9)
     assert 0.0 < a["p_eff_all"] <= 1.0 and b["p_eff_all"] == a["p_eff_all"]
+    # the batch ML identifier on the same samples: at the bound, at either scale
+    assert a["batch_success"] and b["batch_success"]
+    for name in ("Omega_z", "dxy"):
+        assert abs(a[f"batch_err_over_crb_{name}"]) < 4.0
+        assert b[f"batch_err_over_crb_{name}"] == pytest.approx(
+            a[f"batch_err_over_crb_{name}"], abs=1e-3)

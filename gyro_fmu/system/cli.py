@@ -246,7 +246,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
                      if args.stop_time is not None else 0.08, deadline=args.deadline,
                      step=sc.step, measured_pair=sc.measured_pair, noise_seed=sc.seed,
                      tuning=dict(sc.tuning), observer_tuning=args.observer_tuning,
-                     drive=sc.drive)
+                     drive=sc.drive, batch=args.batch)
     res = run_sweep(spec, Path(args.models), scheduler=args.scheduler, n_workers=args.workers)
     paths = write_outputs(res, Path(args.out), figures=not args.no_figures)
     s = res.summary()
@@ -292,6 +292,12 @@ def _print_bound(b: dict | None) -> None:
           f"{pct(a['efficient_fraction_within_tol'])}); within 2 bound-sigmas "
           f"{pct(a['fraction_within_2_crb'])} (efficient "
           f"{pct(a['efficient_fraction_within_2_crb'])})")
+    if a.get("batch_n"):
+        print(f"  batch ML identifier on the same data ({a['batch_n']} gyros): all 8 within "
+              f"tolerance {pct(a['batch_fraction_within_tol'])}, within 2 bound-sigmas "
+              f"{pct(a['batch_fraction_within_2_crb'])}; rms err/CRB " + ", ".join(
+                  f"{n} {u['batch_rms_err_over_crb']:.2f}" for n, u in b["per_unknown"].items()
+                  if "batch_rms_err_over_crb" in u))
     print(f"  {'unknown':>8} {'CRB/tol':>8} {'in tol':>7} {'effic.':>7} {'in 2CRB':>8} "
           f"{'rms e/CRB':>9} {'mean e/CRB':>10}")
     for name, u in b["per_unknown"].items():
@@ -433,6 +439,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                     help="scenario: the constant-rate model and the noise stds told "
                     "(default); fmu-rate: the FMU's default rate model, noise told; fmu: the "
                     "FMU's defaults (rate model and noise estimation); --tuning overrides")
+    sw.add_argument("--batch", action="store_true",
+                    help="also fit each gyro with the batch ML identifier (an estimator at "
+                    "the bound, on the same data; a few seconds per gyro)")
     sw.set_defaults(func=_cmd_sweep)
 
     s = sub.add_parser("ssp", parents=[common],
