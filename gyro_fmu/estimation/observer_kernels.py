@@ -2,9 +2,10 @@
 
 - held_step: one exact held-input step of the augmented model (eq. 5) with the exact
   sensitivities of the new state to the parameters and Omega_z.
-- correct: the measurement update of eq. 8, x^ += L (Z - C x^), L from the covariance.
-- predict: propagation of x^ and P to t + h with ux, uy and Omega_z held (predict_about:
-  linearized about another estimate, as the rate models of observer_rate share one).
+- noise_variances, correct_with, monitor_innovations: the measurement update of eq. 8,
+  x^ += L (Z - C x^), L from the covariance, and what the monitor records of it.
+- linearize, predict_about: propagation of x^ and P to t + h with ux, uy and Omega_z
+  held, about a given estimate (the rate models of observer_rate share one).
 
 The filter works in a scaled state (see docs/observer-design.md); the constant data of
 one observer are an ObserverModel, its noise settings a NoiseModel. One EKF step is
@@ -316,15 +317,6 @@ def monitor_innovations(model, mon, P, nu0, nu1, R0, R1):  # pragma: no cover
 
 
 @njit(cache=True)
-def correct(model, noise, x, P, peak, nu2, mon, z1, z2, h):  # pragma: no cover
-    """Measurement update (eq. 8) of one filter's x, P in place with (z1, z2) at t:
-    noise_variances, monitor_innovations, correct_with."""
-    R0, R1, nu0, nu1 = noise_variances(model, noise, x, peak, nu2, z1, z2, h)
-    monitor_innovations(model, mon, P, nu0, nu1, R0, R1)
-    correct_with(model, noise.joseph, x, P, z1, z2, R0, R1)
-
-
-@njit(cache=True)
 def linearize(model, x, ux, uy, h):  # pragma: no cover
     """The held step (eq. 5) of x's plant state at x's parameters and Omega_z: (s1, Phi, S)."""
     theta = np.empty(N_PAR)
@@ -406,13 +398,6 @@ def predict_about(xbar, s1, Phi, S, x, P, Fr, Qr, qpar):  # pragma: no cover
             v = 0.5 * (B[i, j] + B[j, i])
             P[i, j] = v
             P[j, i] = v
-
-
-@njit(cache=True)
-def predict(model, x, P, Fr, Qr, qpar, ux, uy, h):  # pragma: no cover
-    """EKF prediction of one filter (x, P in place) to t + h with ux, uy, Omega_z held."""
-    s1, Phi, S = linearize(model, x, ux, uy, h)
-    predict_about(x.copy(), s1, Phi, S, x, P, Fr, Qr, qpar)
 
 
 @njit(cache=True)
