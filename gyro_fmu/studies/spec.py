@@ -605,7 +605,9 @@ def measure_spec(cfg: SpecConfig, progress: Callable[[str], None] = lambda s: No
     rec = simulate(cfg, lambda t: cfg.rate, cfg.duration, "Allan/start-up run")
     progress(f"  done in {rec.wall_s:.1f} s")
     allan = allan_study(rec, cfg)
-    allan["rate_model_probabilities"] = probability_summary(rec, allan["settled_from_s"], h)
+    allan["rate_model_probabilities"] = (
+        probability_summary(rec, allan["settled_from_s"], h)
+        if int(getattr(tun, "rate_model", -1)) == 0 else None)  # only the adaptive mixes
     trace = startup_trace(rec, allan["startup_window_s"], h)
     warnings_ = warning_summary("Allan/start-up run", rec)
     del rec
