@@ -6,7 +6,8 @@ peak (scenario.absolute_noise), rates
 
     constant 1 rad/s;  1 + 0.5 sin(2 pi 10 t);  sin(2 pi 100 t) (the patent's Table 1 case)
 
-and, with --random, a first-order Gauss-Markov rate (a new trajectory per seed).
+and, with --random, a first-order Gauss-Markov rate (std 0.5 rad/s, 10 Hz, mean 1 rad/s;
+sampled every --knot-step steps and held; a new trajectory per seed).
 
 For each case:
   bound     RMS over the window (default 80-100 ms) of the PCRB 1-sigma of Omega_z(t_k)
@@ -125,6 +126,8 @@ def main() -> None:
     ap.add_argument("--random", action="store_true",
                     help="add a Gauss-Markov rate (std 0.5 rad/s, 10 Hz, mean 1 rad/s)")
     ap.add_argument("--draws", type=int, default=8, help="Monte Carlo draws of a random rate")
+    ap.add_argument("--knot-step", dest="knot_step", type=int, default=100,
+                    help="the random rate is sampled every KNOT_STEP steps and held")
     args = ap.parse_args()
     overrides = parse_tuning(args.tuning)
     window = tuple(args.window)
@@ -137,7 +140,7 @@ def main() -> None:
     print("\n" + head)
     cases: list[tuple[str, RateProfile | None]] = [(r, RateProfile.parse(r)) for r in args.rates]
     if args.random:
-        cases.append(("GM 0.5 rad/s 10 Hz", None))
+        cases.append((f"GM 0.5 rad/s 10 Hz /{args.knot_step}", None))
     for label, profile in cases:
         for noise in args.noise:
             t0 = time.perf_counter()
@@ -149,7 +152,7 @@ def main() -> None:
             rate_model = None
             if profile is None:
                 rate_model = gauss_markov_rate(sc.step, sc.n_steps, 0.5, 10.0, mean=1.0,
-                                               knot_step=100)
+                                               knot_step=args.knot_step)
             bound = tracking_bound_for_scenario(sc, user, rate=rate_model, t_eval=t_eval,
                                                 n_draws=args.draws)
             b = bound.rms_sigma(*window)
