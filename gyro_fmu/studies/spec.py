@@ -293,14 +293,15 @@ def bias_instability(taus: np.ndarray, adev: np.ndarray) -> dict:
     """Bias instability B (rad/s) = the Allan deviation's flat minimum / 0.664
     (sigma = B sqrt(2 ln 2 / pi) on the flat part; IEEE 952 Annex C).
 
-    The minimum is sought beyond the deviation's maximum: below it the output is
+    The minimum is sought beyond the deviation's first maximum: below it the output is
     smoothed by the observer's own bandwidth (the deviation rises with tau there, a
     filter's signature, not a bias). "resolved" is True when the minimum lies inside
     the tau range (not in its last two points) with a local slope within +-0.25 there;
     otherwise the record is too short (the deviation still falls) and B is an upper
     bound: the last deviation / 0.664.
     """
-    i0 = int(np.argmax(adev))
+    falls = np.flatnonzero(np.diff(adev) < 0.0)
+    i0 = int(falls[0]) if falls.size else 0
     i = i0 + int(np.argmin(adev[i0:]))
     slopes = local_slopes(taus, adev)
     resolved = i < len(adev) - 2 and abs(slopes[i]) <= 0.25
