@@ -54,14 +54,12 @@ from gyro_fmu.estimation.observer import (  # noqa: E402
     ObserverDivergedError,
     ObserverTuning,
 )
-from gyro_fmu.estimation.tracking_bound import (  # noqa: E402
-    gauss_markov_rate,
-    tracking_bound_for_scenario,
-)
+from gyro_fmu.estimation.rate_processes import gauss_markov_rate  # noqa: E402
 from gyro_fmu.model.parameters import GyroParameters  # noqa: E402
 from gyro_fmu.model.plant import GyroPlantModel  # noqa: E402
 from gyro_fmu.model.rate import RateProfile  # noqa: E402
 from gyro_fmu.system.scenario import absolute_noise, observer_tuning, scenario  # noqa: E402
+from gyro_fmu.system.tracking import tracking_bound_for_scenario  # noqa: E402
 
 RATES = ("constant:1", "sine:0.5:10:1", "sine:1:100")
 NOISE_LEVELS = (1e-5, 1e-4)

@@ -15,6 +15,7 @@ from gyro_fmu.estimation.observer import GyroStateObserver
 from gyro_fmu.model.parameters import PARAMETER_NAMES
 from gyro_fmu.model.rate import RateKind, RateProfile
 from gyro_fmu.system.scenario import absolute_noise, noise_free_run, scenario
+from gyro_fmu.system.tracking import rate_model_for, tracking_bound_for_scenario
 
 
 @pytest.fixture(scope="module")
@@ -138,7 +139,7 @@ def test_gyro_sine_bound_is_the_riccati_along_the_truth():
                   rate=RateProfile(RateKind.sine, offset=0.0, amplitude=1.0, frequency=100.0))
     n = absolute_noise(sc)
     std = (n.x, n.y)
-    b = tb.tracking_bound_for_scenario(sc, state_prior=False, t_eval=[0.001, 0.004])
+    b = tracking_bound_for_scenario(sc, state_prior=False, t_eval=[0.001, 0.004])
     p, g = sc.params, sc.initial_guess
     obs = GyroStateObserver(p)
     th = obs.theta0.copy()
@@ -216,9 +217,9 @@ def test_rate_model_checks():
     sc = scenario("default", stop_time=0.001, noise=1e-4,
                   rate=RateProfile(RateKind.step, amplitude=1.0, t_start=0.0005))
     with pytest.raises(ValueError, match="no rate model"):
-        tb.rate_model_for(sc)
+        rate_model_for(sc)
     with pytest.raises(ValueError, match="noise"):
-        tb.tracking_bound_for_scenario(sc.with_(noise=0.0, rate=RateProfile()))
+        tracking_bound_for_scenario(sc.with_(noise=0.0, rate=RateProfile()))
     r = tb.constant_rate(1.0, 1e-5, 100)
     with pytest.raises(ValueError, match="samples"):
         tb.tracking_bound(sc.params, sc.the_drive, r, (1e-9, 1e-9), 1e-5, 50)
