@@ -192,3 +192,12 @@ def test_a_heavy_proof_mass_gives_the_same_gyro_and_bound(models_dir):
         assert abs(a[f"batch_err_over_crb_{name}"]) < 4.0
         assert b[f"batch_err_over_crb_{name}"] == pytest.approx(
             a[f"batch_err_over_crb_{name}"], abs=1e-3)
+
+
+def test_the_drive_reaches_every_gyro():
+    from gyro_fmu.model.drive import TwoToneDrive
+
+    drive = TwoToneDrive(A1=2e-7, A2=1e-7, f1=3000.0, f2=1500.0)
+    spec = SweepSpec(drive=drive)
+    assert spec.scenario_for(3, spec.tolerances.draw(4)[3]).the_drive == drive
+    assert SweepSpec().base_scenario().the_drive.f1 != 3000.0
