@@ -14,8 +14,10 @@ _ESTIMATED = ("Omega_z", "kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m")
 #: Status-1 warnings logged per instance (a noisy run may enter and leave status 1 often).
 _MAX_WARNINGS = 3
 _HAT = {"Omega_z": "Omega_hat"}  # the patent's Omega_z' is published as Omega_hat
-_RATE_KINDS = {"constant": "Omega_z held", "slow": "Omega_z moving at up to a tenth of "
-               "rate_bandwidth", "agile": "Omega_z moving at up to rate_bandwidth"}
+_RATE_KINDS = {"constant": "Omega_z held",
+               "rough": "Omega_z wandering (random walk) at up to a tenth of rate_bandwidth",
+               "slow": "Omega_z moving smoothly at up to a tenth of rate_bandwidth",
+               "agile": "Omega_z moving smoothly at up to rate_bandwidth"}
 #: The outputs in the order of GyroStateObserver.output_row().
 _OUTPUTS = ("x_hat", "vx_hat", "y_hat", "vy_hat", *(_HAT.get(n, f"{n}_hat") for n in _ESTIMATED),
             *(f"sigma_{n}" for n in _ESTIMATED))

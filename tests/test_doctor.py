@@ -89,7 +89,7 @@ def test_the_check_plan_is_the_slaves_and_without_its_source_every_output(
     assert host.check_plan(info) == load_slave("GyroPlant").DOCTOR_CHECK
     observer = host.unpack_fmu(models_dir / "GyroObserver.fmu", tmp_path / "observer")
     assert load_slave("GyroObserver").DOCTOR_CHECK is None
-    assert host.check_plan(observer) == ({}, observer.outputs) and len(observer.outputs) == 24
+    assert host.check_plan(observer) == ({}, observer.outputs) and len(observer.outputs) == 25
     monkeypatch.setattr(build, "source_dir", lambda: None)
     assert host.check_plan(info) == ({}, ("x", "vx", "y", "vy", "ax", "ay"))
     compiler = env.find_compiler()

@@ -26,14 +26,15 @@ FACTORS = {"kxx": 1.07, "kyy": 0.94, "kxy": 1.25, "dxx": 0.85, "dyy": 1.15, "dxy
 H = 5e-6
 
 
-def _run(profile: RateProfile, noise: float, n: int, seed: int = 0, **tuning):
+def _run(profile: RateProfile, noise: float, n: int, seed: int = 0,
+         with_constant: bool = False, **tuning):
     base = scenario("default").params
     sc = scenario("default", overrides={k: getattr(base, k) * f for k, f in FACTORS.items()},
                   noise=noise, seed=seed, rate=profile, stop_time=n * H)
     plant = GyroPlantModel(sc.params, absolute_noise(sc), seed)
     obs = GyroStateObserver(GyroParameters(**sc.initial_guess), 0.0, 1,
                             ObserverTuning(**tuning))
-    om, truth, sig, p = (np.empty(n) for _ in range(4))
+    om, truth, sig, p, pc = (np.empty(n) for _ in range(5))
     for k in range(n):
         ux, Om = sc.the_drive.ux(k * H), profile.Omega_z(k * H)
         z = plant.measured()
@@ -41,22 +42,23 @@ def _run(profile: RateProfile, noise: float, n: int, seed: int = 0, **tuning):
         obs.step(ux, 0.0, z[0], z[2], H)
         om[k], sig[k] = obs.estimates()["Omega_z"], obs.sigmas()["Omega_z"]
         truth[k] = profile.Omega_z((k + 1) * H)
-        p[k] = obs.rate_probabilities()["agile"]
-    return om, truth, sig, p, obs
+        probabilities = obs.rate_probabilities()
+        p[k], pc[k] = probabilities["agile"], probabilities["constant"]
+    return (om, truth, sig, p, obs, pc) if with_constant else (om, truth, sig, p, obs)
 
 
 def test_a_constant_rate_is_found_constant_and_estimated_as_well_as_by_the_constant_model():
-    """Noise 1e-4, 40 ms, 3 seeds: P(constant) > 0.9, the error within 3 sigmas, and the
-    RMS error within 1.25x that of the exactly-constant model on the same data (measured
-    1.00-1.02x)."""
+    """Noise 1e-4, 80 ms (the issue's deadline), 3 seeds: P(constant) > 0.9, the error
+    within 3 sigmas, and the RMS error within 1.25x that of the exactly-constant model on
+    the same data (8 seeds: 7.15e-3 against 7.13e-3 rad/s, the bound 5.44e-3)."""
     const = RateProfile(RateKind.constant, offset=1.0)
     e_adapt, e_const = [], []
     for seed in range(3):
-        om, _, sig, _, obs = _run(const, 1e-4, 8000, seed)
+        om, _, sig, _, obs = _run(const, 1e-4, 16000, seed)
         assert obs.rate_probabilities()["constant"] > 0.9, obs.rate_probabilities()
         assert abs(om[-1] - 1.0) <= 3 * sig[-1]
         e_adapt.append(om[-1] - 1.0)
-        om1, *_ = _run(const, 1e-4, 8000, seed, rate_model=1)
+        om1, *_ = _run(const, 1e-4, 16000, seed, rate_model=1)
         e_const.append(om1[-1] - 1.0)
     ratio = math.sqrt(np.mean(np.square(e_adapt)) / np.mean(np.square(e_const)))
     assert ratio <= 1.25, (e_adapt, e_const)
@@ -76,16 +78,45 @@ def test_the_patents_100_hz_sine_is_tracked_at_default_settings():
 
 
 def test_a_rate_that_starts_moving_is_followed_within_milliseconds():
-    """Constant 1 rad/s, then a 100 Hz sine of 1 rad/s from 30 ms (noise 1e-5): the agile
-    model takes over within 3 ms (measured ~2 ms) and the error is back below 5 % RMS
+    """Constant 1 rad/s, then a 100 Hz sine of 1 rad/s from 30 ms (noise 1e-5): the
+    constant model is left within 2 ms (the rough one takes over first), the agile model
+    holds the rate within 5 ms (measured 2-5 ms), and the error is back below 5 % RMS
     over 40-50 ms."""
     profile = RateProfile(RateKind.sine, offset=1.0, amplitude=1.0, frequency=100.0,
                           t_start=0.03)
-    om, truth, _, p, _ = _run(profile, 1e-5, 10000)
+    om, truth, _, p, _, pc = _run(profile, 1e-5, 10000, with_constant=True)
     assert p[5000] < 0.1  # 25 ms: constant
-    assert p[6600] > 0.9, p[6000:6600:50]  # 33 ms
+    assert pc[6400] < 0.1, pc[6000:6400:50]  # 32 ms
+    assert p[7000] > 0.9, p[6000:7000:50]  # 35 ms
     w = slice(8000, 10000)
     assert math.sqrt(np.mean((om[w] - truth[w]) ** 2)) < 0.05
+
+
+class _GaussMarkov:
+    """Omega_z = 1 + a first-order Gauss-Markov process (0.5 rad/s, 10 Hz), exact per step."""
+
+    def __init__(self, seed: int, n: int) -> None:
+        rng = np.random.default_rng(1000 + seed)
+        rho = math.exp(-2 * math.pi * 10.0 * H)
+        x = np.empty(n + 2)
+        x[0] = 0.5 * rng.standard_normal()
+        for k in range(n + 1):
+            x[k + 1] = rho * x[k] + 0.5 * math.sqrt(1 - rho**2) * rng.standard_normal()
+        self.values = 1.0 + x
+
+    def Omega_z(self, t: float) -> float:
+        return float(self.values[round(t / H)])
+
+
+def test_a_wandering_rate_is_followed_and_its_sigma_stays_honest():
+    """A Gauss-Markov rate (no smooth derivative), noise 1e-5, 60 ms: the rough model is
+    chosen and error/sigma RMS over 40-60 ms stays below 2 (measured 1.28-1.39 over
+    80-100 ms). Without the rough model the three smooth ones gave 6.8-7.7 with status 0."""
+    n = 12000
+    om, truth, sig, _, obs = _run(_GaussMarkov(0, n), 1e-5, n)
+    w = slice(8000, n)
+    assert obs.rate_probabilities()["rough"] > 0.9, obs.rate_probabilities()
+    assert math.sqrt(np.mean(((om[w] - truth[w]) / sig[w]) ** 2)) < 2.0
 
 
 def test_mixture_and_mixing_equal_their_definitions():
@@ -123,19 +154,23 @@ def test_mixture_and_mixing_equal_their_definitions():
 
 
 def test_the_rate_processes_and_their_switching():
-    """Transitions and noise of the three models over h; rows of Pi sum to 1; the mean
+    """Transitions and noise of the four models over h; rows of Pi sum to 1; the mean
     time in a model is rate_dwell."""
     tun = ObserverTuning()
     Fr, Qr, Pi = rate.rate_models(tun, H)
-    assert Fr.shape == Qr.shape == (3, 3, 3)
+    assert Fr.shape == Qr.shape == (4, 3, 3)
     np.testing.assert_array_equal(Fr[0], np.diag([1.0, 0.0, 0.0]))  # constant
     assert not Qr[0].any()
-    np.testing.assert_allclose(Fr[1], [[1, H, 0], [0, 1, 0], [0, 0, 0]])  # slow: order 2
-    q2 = rate.intensity(2, tun.rate_span, tun.rate_bandwidth / rate.SLOW_FRACTION)
-    np.testing.assert_allclose(Qr[1][:2, :2], q2 * np.array([[H**3 / 3, H**2 / 2],
+    slow = tun.rate_bandwidth / rate.SLOW_FRACTION
+    np.testing.assert_array_equal(Fr[1], np.diag([1.0, 0.0, 0.0]))  # rough: random walk
+    assert Qr[1][0, 0] == pytest.approx(rate.intensity(1, tun.rate_span, slow) * H, rel=1e-14)
+    assert Qr[1][0, 0] == pytest.approx(tun.rate_span**2 * slow * H, rel=1e-14)
+    np.testing.assert_allclose(Fr[2], [[1, H, 0], [0, 1, 0], [0, 0, 0]])  # slow: order 2
+    q2 = rate.intensity(2, tun.rate_span, slow)
+    np.testing.assert_allclose(Qr[2][:2, :2], q2 * np.array([[H**3 / 3, H**2 / 2],
                                                             [H**2 / 2, H]]), rtol=1e-14)
     q3 = rate.intensity(3, tun.rate_span, tun.rate_bandwidth)
-    assert Qr[2][2, 2] == pytest.approx(q3 * H, rel=1e-14)
+    assert Qr[3][2, 2] == pytest.approx(q3 * H, rel=1e-14)
     np.testing.assert_allclose(Pi.sum(axis=1), 1.0, rtol=1e-15)
     assert 1.0 - Pi[0, 0] == pytest.approx(H / tun.rate_dwell, rel=1e-5)
     # 150 Hz at 1 rad/s on the 3rd derivative: 1 * (2 pi 150)^5 / (2 pi)
@@ -143,14 +178,14 @@ def test_the_rate_processes_and_their_switching():
 
 
 @pytest.mark.parametrize("rate_model, n, names", [
-    (0, 14, ("constant", "slow", "agile")), (1, 12, ("constant",)),
+    (0, 14, ("constant", "rough", "slow", "agile")), (1, 12, ("constant",)),
     (2, 14, ("tracking",)), (3, 13, ("expert",))])
 def test_each_rate_model_runs_and_reports_its_probabilities(rate_model, n, names):
     obs = GyroStateObserver(scenario("default").params, 0.0, 1,
                             ObserverTuning(rate_model=rate_model))
     assert obs.n == n and obs.rate_models == names
     p = obs.rate_probabilities()
-    assert set(p) == {"constant", "slow", "agile"}
+    assert set(p) == {"constant", "rough", "slow", "agile"}
     assert sum(p.values()) == pytest.approx({0: 1.0, 1: 1.0, 2: 1.0, 3: 0.0}[rate_model])
 
 

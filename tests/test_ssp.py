@@ -103,7 +103,7 @@ def test_libcosim_runs_the_package_like_the_fmpy_master(models_dir, tmp_path):
     # Omega_hat and 1.2e-5 on the rate-model probabilities in 2 ms (2e-10 with a fixed
     # rate model and a fixed noise floor).
     rates = {k: v for k, v in rel.items() if k.startswith("observer.p_rate_")}
-    assert len(rates) == 3 and max(rates.values()) < 1e-4, rates
+    assert len(rates) == 4 and max(rates.values()) < 1e-4, rates
     rest = {k: v for k, v in rel.items() if k not in rates}
     assert max(rest.values()) < 3e-6, sorted(rest.items(), key=lambda kv: -kv[1])[:3]
     for name in ("plant.x", "plant.y", "plant.vy", "drive.ux", "rate.Omega_z"):

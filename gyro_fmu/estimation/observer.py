@@ -72,7 +72,7 @@ def _ekf_step(model, noise, lim, xs, Ps, c, mu, x, P, L, peak, nu2, mon, Fr, Qr,
             P[i, i] += pv
             for j in range(xs.shape[0]):
                 Ps[j, i, i] += pv
-    rate.predict(m, xs, Ps, mu, c, Pi, x, P, Fr, Qr, qpar, ux, uy, h)
+    rate.predict(m, xs, Ps, mu, c, Pi, x, P, Fr, Qr, qpar, peak, ux, uy, h)
     return check(m, MonitorLimits(*lim), x, P, L, peak, mon)
 
 
@@ -324,7 +324,8 @@ class GyroStateObserver:
         if self._auto_prior:
             self._start_prior(ux, uy, 0.0, 0.0)
         rate.predict(self._model, self.xs, self.Ps, self.mu, self.c, self._Pi, self.xhat,
-                     self.P, self._Fr, self._Qr, self._qpar, float(ux), float(uy), float(h))
+                     self.P, self._Fr, self._Qr, self._qpar, self.peak, float(ux), float(uy),
+                     float(h))
         self.t += h
         code = check(self._model, MonitorLimits(*self._lim), self.xhat, self.P, self._L,
                      self.peak, self.mon)
@@ -357,7 +358,7 @@ class GyroStateObserver:
         return self._out.tolist()
 
     def rate_probabilities(self) -> dict[str, float]:
-        """P(the rate is constant / slow / agile) after the last step (observer_rate): the
+        """P(the rate is constant / rough / slow / agile) after the last step (observer_rate): the
         IMM's model probabilities; a fixed model: 1 for its kind (agile for tracking),
         0 for the others; expert: all 0."""
         out = dict.fromkeys(rate.RATE_KINDS, 0.0)

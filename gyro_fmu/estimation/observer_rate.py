@@ -7,6 +7,8 @@ in how Omega_z may move, mixed by the IMM algorithm (Blom & Bar-Shalom, IEEE Tra
 Navigation", 2001, sec. 11.6.6, eqs. 11.6.6-1 to -22):
 
 - constant: Omega_z constant (the Cramer-Rao bound's model);
+- rough: random walk sized to follow rate_span at rate_bandwidth / 10 (a rate that
+  wanders without a smooth derivative, e.g. a Gauss-Markov process);
 - slow: integrated random walk sized to follow rate_span at rate_bandwidth / 10;
 - agile: twice-integrated random walk sized to follow rate_span at rate_bandwidth.
 
@@ -16,8 +18,8 @@ q = rate_span^2 (2 pi f)^(2 r - 1) / (2 pi), follows a sine of amplitude rate_sp
 against 1e4-1e5; order 3, 100 Hz: 1.6e13 against ~1e13; docs/observer-rate-model.md).
 
 The three filters share the plant's linearization (the held step of eq. 5 about the
-combined estimate: observer_kernels.predict_about), so a step costs one held step, three
-corrections and three covariance propagations. A fixed rate model (constant, tracking
+combined estimate: observer_kernels.predict_about), so a step costs one held step, four
+corrections and four covariance propagations. A fixed rate model (constant, tracking
 at rate_bandwidth, or the expert q_Omega / omega_order) is the same code with one model.
 """
 
@@ -35,15 +37,19 @@ from . import observer_kernels as kern
 class RateModel(IntEnum):
     """ObserverTuning.rate_model (the FMU's Integer-valued parameter)."""
 
-    adaptive = 0  #: IMM over constant / slow / agile (the default)
+    adaptive = 0  #: IMM over constant / rough / slow / agile (the default)
     constant = 1  #: Omega_z constant (as the Cramer-Rao bound assumes)
     tracking = 2  #: one agile model at rate_bandwidth
     expert = 3  #: one model: q_Omega on the omega_order-th derivative
 
 
+#: Process noise of the plant state per step, relative to each measured signal's running
+#: peak: a floor that keeps the covariance positive definite over long runs (predict); far
+#: below any pick-off noise (1e-9 of the peak per step).
+STATE_NOISE = 1e-9
 #: The adaptive set's models (rate_probabilities, the FMU's p_rate_* outputs).
-RATE_KINDS = ("constant", "slow", "agile")
-#: The slow model of the adaptive set follows rate_bandwidth divided by this.
+RATE_KINDS = ("constant", "rough", "slow", "agile")
+#: The rough and slow models of the adaptive set follow rate_bandwidth divided by this.
 SLOW_FRACTION = 10.0
 
 
@@ -95,7 +101,9 @@ def rate_models(tuning, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r = rate_block_size(tuning)
     span, f = float(tuning.rate_span), float(tuning.rate_bandwidth)
     if kind is RateModel.adaptive:
-        specs = [(1, 0.0), (2, intensity(2, span, f / SLOW_FRACTION)), (3, intensity(3, span, f))]
+        slow = f / SLOW_FRACTION
+        specs = [(1, 0.0), (1, intensity(1, span, slow)), (2, intensity(2, span, slow)),
+                 (3, intensity(3, span, f))]
     elif kind is RateModel.constant:
         specs = [(1, 0.0)]
     elif kind is RateModel.tracking:
@@ -187,12 +195,23 @@ def update(model, noise, xs, Ps, c, mu, x, P, peak, nu2, mon, z1, z2, h):  # pra
 
 
 @njit(cache=True)
-def predict(model, xs, Ps, mu, c, Pi, x, P, Fr, Qr, qpar, ux, uy, h):  # pragma: no cover
+def predict(model, xs, Ps, mu, c, Pi, x, P, Fr, Qr, qpar, peak, ux, uy, h):  # pragma: no cover
     """IMM prediction to t + h: mix, propagate every filter about the combined estimate x
-    (one held step, eq. 5), then x, P = their mixture with the predicted probabilities c."""
+    (one held step, eq. 5), then x, P = their mixture with the predicted probabilities c.
+
+    Each step adds (STATE_NOISE x the running peak of each measured signal, in m)^2 to
+    the variances of [x, vx, y, vy]: without it the correlations between the plant state
+    and the parameters of a constant-rate filter reach 1 - 1e-16 within seconds and
+    rounding breaks positive definiteness (lost at 3.09 s at noise 1e-4)."""
     s1, Phi, S = kern.linearize(model, x, ux, uy, h)
     xbar = x.copy()
     mix(xs, Ps, mu, Pi, c)
+    q0 = (STATE_NOISE * peak[0] / model.hgain[0]) ** 2
+    q1 = (STATE_NOISE * peak[1] / model.hgain[1]) ** 2
     for j in range(xs.shape[0]):
         kern.predict_about(xbar, s1, Phi, S, xs[j], Ps[j], Fr[j], Qr[j], qpar)
+        Ps[j, 0, 0] += q0
+        Ps[j, 1, 1] += q0
+        Ps[j, 2, 2] += q1
+        Ps[j, 3, 3] += q1
     combine(xs, Ps, c, x, P)

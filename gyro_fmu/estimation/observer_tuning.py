@@ -44,18 +44,20 @@ class ObserverTuning:
         1.0e-3, "s", "time constant of the running mean of the squared innovations")
     rate_model: int = _tuning(
         0, "1", "model of Omega_z(t): 0 adaptive (the observer finds from its innovations "
-        "whether the rate is constant, slow or agile: an interacting-multiple-model filter, "
+        "whether the rate is constant, wandering, slow or agile: an interacting-multiple-model "
+        "filter, "
         "docs/observer-rate-model.md); 1 constant; 2 tracking (follows rate_span at "
         "rate_bandwidth); 3 expert (q_Omega on the omega_order-th derivative)", max=3)
     rate_bandwidth: float = _tuning(
         150.0, "Hz", "fastest rate motion to follow (rate_model 0 and 2): the agile model "
-        "follows a sine of amplitude rate_span at this frequency, the slow model at a tenth")
+        "follows a sine of amplitude rate_span at this frequency, the slow and rough models at "
+        "a tenth")
     rate_span: float = _tuning(
         1.0, "rad/s", "amplitude of the rate motion to follow at rate_bandwidth (rate_model "
         "0 and 2)")
     rate_dwell: float = _tuning(
-        10.0, "s", "rate_model 0: mean time the rate keeps one behaviour (constant, slow, "
-        "agile) before it may switch")
+        10.0, "s", "rate_model 0: mean time the rate keeps one behaviour (constant, rough, "
+        "slow, agile) before it may switch")
     q_Omega: float = _tuning(
         1.0e9, "rad2/s5", "rate_model 3 only: spectral density of the white noise driving "
         "the omega_order-th derivative of Omega_z (unit for omega_order 2; rad2/s3 for 1, "
