@@ -66,7 +66,7 @@ def parser() -> argparse.ArgumentParser:
     d.set_defaults(func=_cmd_doctor)
 
     from .selfcal.cli import register as register_selfcal
-    from .studies.spec_cli import register as register_spec
+    from .spec.cli import register as register_spec
     from .system.cli import register as register_system
 
     register_system(sub)

@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "gyro_fmu"
 RANKS = {"errors": -1, "model": 0, "cosim": 0, "fmu": 0, "studies": 0,
          "estimation": 1, "doctor": 1, "system": 2,
-         "selfcal": 2, "cli": 3, "fmu_src": 4}
+         "selfcal": 2, "spec": 3, "cli": 4, "fmu_src": 5}
 #: Left for 0.1 FMUs only: raises a message on import (see its docstring).
 COMPAT = {PACKAGE / "fmi.py"}
 MAX_LINES = 450

@@ -1,4 +1,4 @@
-"""gyro-fmu spec: the datasheet figures of the observer-based gyro (gyro_fmu/studies/spec.py).
+"""gyro-fmu spec: the datasheet figures of the observer-based gyro (gyro_fmu/spec/).
 
 The measurement functions against signals of known answer (white rate noise of known
 density, a rate random walk of known intensity, a known line, a first-order response,
@@ -13,10 +13,11 @@ import math
 import numpy as np
 import pytest
 
+from gyro_fmu import spec
 from gyro_fmu.cli import main
 from gyro_fmu.estimation.observer import GyroStateObserver, ObserverDivergedError
+from gyro_fmu.model.parameters import ParameterError
 from gyro_fmu.selfcal.allan import allan_deviation
-from gyro_fmu.studies import spec
 
 #: A short but complete spec run (about 0.9 s simulated); a band wide enough that the
 #: noise of a 0.04 s start-up window cannot leave it.
@@ -139,11 +140,11 @@ def test_allan_study_refuses_noise_figures_of_a_growing_average():
 
 
 def test_config_refuses_bad_inputs():
-    with pytest.raises(spec.ParameterError, match="unknown observer tuning"):
+    with pytest.raises(ParameterError, match="unknown observer tuning"):
         spec.SpecConfig(tuning={"no_such_field": 1.0})
-    with pytest.raises(spec.ParameterError, match="bw_frequencies"):
+    with pytest.raises(ParameterError, match="bw_frequencies"):
         spec.SpecConfig(bw_frequencies=(10.0, 1e6))
-    with pytest.raises(spec.ParameterError):
+    with pytest.raises(ParameterError):
         spec.SpecConfig(duration=-1.0)
 
 

@@ -15,24 +15,7 @@ import time
 from pathlib import Path
 
 from ..model.parameters import PARAMETER_NAMES, PRESETS, ParameterError
-
-
-def _name_values(items: list[str] | None, flag: str, known: tuple[str, ...],
-                 example: str) -> dict[str, float]:
-    out: dict[str, float] = {}
-    for item in items or []:
-        name, sep, value = item.partition("=")
-        name = name.strip()
-        if not sep:
-            raise ParameterError(f"{flag} {item!r} must read NAME=VALUE, e.g. {example}")
-        if name not in known:
-            raise ParameterError(f"{flag} {item!r}: {name!r} is not known; names are "
-                                 f"{', '.join(known)}")
-        try:
-            out[name] = float(value)
-        except ValueError:
-            raise ParameterError(f"{flag} {item!r}: {value!r} is not a number") from None
-    return out
+from ..selfcal.cli import name_values
 
 
 def _frequencies(text: str) -> tuple[float, ...]:
@@ -47,13 +30,14 @@ def config_from(args: argparse.Namespace):
     from dataclasses import fields
 
     from ..estimation.observer import ObserverTuning
-    from .spec import SpecConfig
+    from .config import SpecConfig
 
     tuning_names = tuple(f.name for f in fields(ObserverTuning))
     values: dict[str, object] = {
         "preset": args.preset,
-        "overrides": _name_values(args.set, "--set", PARAMETER_NAMES, "kxy=5e7"),
-        "tuning": _name_values(args.tuning, "--tuning", tuning_names, "rate_model=2"),
+        "overrides": name_values(args.set, "--set", PARAMETER_NAMES, "kxy=5e7", "a gyro parameter"),
+        "tuning": name_values(args.tuning, "--tuning", tuning_names, "rate_model=2",
+                         "an observer tuning field"),
     }
     if args.noise is not None and args.noise_density is not None:
         raise ParameterError("give --noise (relative) or --noise-density (m/sqrt(Hz)), "
@@ -224,7 +208,7 @@ def spec_figure(s: dict, path: Path) -> Path:
 
 
 def _cmd_spec(args: argparse.Namespace) -> int:
-    from .spec import measure_spec
+    from .measure import measure_spec
 
     cfg = config_from(args)
     out = Path(args.out)
@@ -252,7 +236,7 @@ def _cmd_spec(args: argparse.Namespace) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add `gyro-fmu spec` to the command line."""
-    from .spec import SpecConfig
+    from .config import SpecConfig
 
     d = SpecConfig.__dataclass_fields__
     sp = sub.add_parser(
