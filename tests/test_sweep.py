@@ -60,6 +60,10 @@ def test_three_gyro_sweep_with_one_failure(tmp_path, models_dir):
     assert b["per_unknown"]["Omega_z"]["rms_err_over_crb"] > 0
     conv = summary["convergence_time_s"]
     assert conv["never_or_failed"] >= 1  # the failed gyro never converges
+    curve = summary["within_curve"]
+    assert len(curve["t_s"]) == len(curve["fraction_within_tol"]) == 40
+    assert curve["t_s"][-1] == pytest.approx(spec.stop_time)
+    assert all(0 <= v <= 1 for v in curve["efficient_fraction_within_tol"] if v is not None)
     from gyro_fmu.system.cli import _print_bound
 
     _print_bound(b)
@@ -109,22 +113,21 @@ def test_crb_at_keeps_its_precision_at_tiny_displacements(m):
     assert np.allclose(c1, c0, atol=1e-9)
 
 
-def test_bound_correlation_matches_crb_at():
-    """The sweep's correlation comes from the same sensitivities as crb_at's diagonal."""
-    from gyro_fmu.estimation import fisher
+def test_bound_covariance_matches_crb_at():
+    """The sweep's covariance (correlations, the curve) is crb_at's: same sensitivities,
+    same diagonal, over the whole record and over its first samples."""
     from gyro_fmu.estimation.identify import crb_at
-    from gyro_fmu.estimation.sensitivity import ScaledSensitivitySystem
     from gyro_fmu.system.scenario import scenario
+    from gyro_fmu.system.sweep import _weighted_sensitivities, fisher_covariance
 
     sc = scenario("default")
     rec = _drive_record(sc.params)
     std = (6.6e-13, 4.8e-13)
-    sys = ScaledSensitivitySystem.build(sc.params, 1.0, rec.h)
-    _, dS = sys.unscale(sys.simulate(np.zeros(sys.Phi.shape[0]), rec.u))
-    dz = np.moveaxis(dS[:, :, [0, 2]], 1, 2) / np.asarray(std)[None, :, None]
-    sig = np.sqrt(np.diag(fisher.covariance(dz.reshape(-1, 8)))) * sys.scales
-    crb = crb_at(sc.params, 1.0, rec, std)
-    assert sig == pytest.approx([crb[n] for n in crb], rel=1e-6)
+    J = _weighted_sensitivities(sc, 1.0, rec, std)
+    for n in (rec.time.size, 1000):
+        sig = np.sqrt(np.diag(fisher_covariance(J, n)))
+        crb = crb_at(sc.params, 1.0, rec.head(n), std)
+        assert sig == pytest.approx([crb[k] for k in crb], rel=1e-6)
 
 
 def _result(conv):
@@ -132,6 +135,24 @@ def _result(conv):
 
     rows = [{"gyro": i, "status": "ok", "conv_s_all": c} for i, c in enumerate(conv)]
     return SweepResult(rows, SweepSpec(n=len(rows)), 1.0, 1)
+
+
+def test_within_curve_and_its_deadlines():
+    from gyro_fmu.system.sweep import SweepResult, curve_times
+
+    spec = SweepSpec(n=4, stop_time=0.004, step=1e-4)
+    t = curve_times(spec)
+    assert t[-1] == pytest.approx(0.004) and len(t) == 40
+    rows = [{"gyro": i, "status": "ok", "within_all_curve": [j >= 10 * i for j in range(40)],
+             "p_eff_all_curve": [min(1.0, 0.03 * j) for j in range(40)]} for i in range(4)]
+    res = SweepResult(rows, spec, 1.0, 1)
+    c = res.within_curve()
+    assert c["fraction_within_tol"][0] == 0.25 and c["fraction_within_tol"][-1] == 1.0
+    d = res.curve_deadlines(0.95)
+    assert d["instant_deadline_for_fraction_s"] == pytest.approx(t[30])  # all 4 from j 30
+    assert d["efficient_deadline_for_fraction_s"] == pytest.approx(t[32])  # 0.03 j >= 0.95
+    rows[0]["within_all_curve"][-1] = False  # one gyro leaves at the end: not within
+    assert res.curve_deadlines(0.95)["instant_deadline_for_fraction_s"] is None
 
 
 def test_deadline_for_95_percent_of_the_lot():

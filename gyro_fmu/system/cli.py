@@ -266,6 +266,12 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
           + (ms(conv["deadline_for_fraction_s"]) if conv["deadline_for_fraction_s"] is not None
              else f"not reached ({conv['never_or_failed']} of {s['n']} never converge or "
                   f"failed)"))
+    inst, eff = (conv[f"{k}_deadline_for_fraction_s"] for k in ("instant", "efficient"))
+    print(f"{share} of the lot within tolerance at each time from: "
+          + (ms(inst) if inst is not None else "not within the run")
+          + f" ({len(s['within_curve']['t_s'])} points up to the deadline); an efficient "
+          "estimator: " + (ms(eff) if eff is not None else "not within the run"
+                           if s["bound"] else "n/a (noise off)"))
     _print_bound(s["bound"])
     for f in s["failures"][:10]:
         print(f"  failed gyro {f['gyro']}: {f['reason']}")

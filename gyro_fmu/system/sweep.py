@@ -59,6 +59,10 @@ DEADLINE_FRACTION = 0.95
 #: Gaussian draws per gyro for the joint probabilities of an efficient estimator.
 JOINT_DRAWS = 20000
 
+#: Points of the within-tolerance curve, evenly spaced up to the deadline (and the
+#: draws per point for an efficient estimator's curve).
+CURVE_POINTS, CURVE_DRAWS = 40, 4000
+
 #: What the observer is told, before SweepSpec.tuning: "scenario" = what
 #: gyro_fmu.system.scenario.observer_tuning sets for the scenario (the constant-rate
 #: model and the pick-off noise stds); "fmu-rate" = the same with its rate settings put
@@ -210,6 +214,8 @@ def _reduce(sc: Scenario, result, spec: SweepSpec, noise=None, i: int = 0) -> di
 
     t = result["time"]
     k_dead = int(np.argmin(np.abs(t - spec.the_deadline)))
+    k_curve = curve_indices(k_dead)
+    within_curve = np.ones(k_curve.size, bool)
     truth = sc.params
     out: dict = {}
     conv_all: float | None = 0.0
@@ -234,13 +240,15 @@ def _reduce(sc: Scenario, result, spec: SweepSpec, noise=None, i: int = 0) -> di
         out[f"tol_{name}"] = tol
         out[f"err_dead_{name}"] = float(err[k_dead])
         within_all &= within
+        within_curve &= np.abs(err[k_curve]) <= tol
         conv_all = None if conv is None or conv_all is None else max(conv_all, conv)
     if not np.all(np.isfinite(result.data)):
         return {**out, "status": "failed", "reason": "NaN/inf in the co-simulation outputs"}
     if worst > DIVERGED_TOLERANCES:
         return {**out, "status": "failed",
                 "reason": f"diverged: final error {worst:.3g} tolerances"}
-    out.update(status="ok", reason="", within_at_deadline=within_all, conv_s_all=conv_all)
+    out.update(status="ok", reason="", within_at_deadline=within_all, conv_s_all=conv_all,
+               within_all_curve=[bool(v) for v in within_curve])
     if noise is not None and not noise.is_off:
         out.update(_bound(sc, result, spec, noise, k_dead, out, seed=i))
     return out
@@ -270,10 +278,12 @@ def _bound(sc: Scenario, result, spec: SweepSpec, noise, k_dead: int, out: dict,
     row["within_2crb_all"] = bool(np.all(np.abs(err) <= 2.0 * sig))
     row["p_eff_all"] = row["p_eff_2crb_all"] = None
     if finite:
-        corr = _bound_correlation(sc, spec.Omega_z, record, std)
+        J = _weighted_sensitivities(sc, spec.Omega_z, record, std)
+        corr = _correlation(fisher_covariance(J))
         e = _gaussian_draws(corr, np.random.default_rng(seed))  # in units of each CRB
         row["p_eff_all"] = float(np.mean(np.all(np.abs(e) * sig <= tol, axis=1)))
         row["p_eff_2crb_all"] = float(np.mean(np.all(np.abs(e) <= 2.0, axis=1)))
+        row["p_eff_all_curve"] = _efficient_curve(J, curve_indices(k_dead), tol, seed)
     if spec.batch:
         row.update(_batch(sc, record, std, sig, tol))
     return row
@@ -300,10 +310,20 @@ def _batch(sc: Scenario, record, std, sig: np.ndarray, tol: np.ndarray) -> dict:
     return row
 
 
-def _bound_correlation(sc: Scenario, Omega_z: float, record, std) -> np.ndarray:
-    """Correlation matrix of the Cramer-Rao bound of the 8 unknowns (crb_at gives the
-    diagonal only): the same exact sensitivities, weighted by the noise stds."""
-    from ..estimation import fisher
+def curve_indices(k_dead: int, points: int = CURVE_POINTS) -> np.ndarray:
+    """Sample indices of the within-tolerance curve: evenly spaced, the last the deadline."""
+    return np.unique(np.clip(np.round(np.arange(1, points + 1) * k_dead / points), 1,
+                             max(k_dead, 1)).astype(int))
+
+
+def curve_times(spec: SweepSpec) -> list[float]:
+    k_dead = round(min(spec.the_deadline, spec.stop_time) / spec.step)
+    return [float(k * spec.step) for k in curve_indices(k_dead)]
+
+
+def _weighted_sensitivities(sc: Scenario, Omega_z: float, record, std) -> np.ndarray:
+    """(N, 2, 8) c_i dz/dtheta_i / noise std: the exact sensitivities crb_at uses (its
+    Jacobian, in the units of the scales c_i), sample by sample."""
     from ..estimation.sensitivity import ScaledSensitivitySystem
     from ..model.measurement import MeasuredPair
 
@@ -312,9 +332,43 @@ def _bound_correlation(sc: Scenario, Omega_z: float, record, std) -> np.ndarray:
     _, dS = sys.unscale(sigma)  # (N, 8, 4): c_i ds/dtheta_i
     rows = list(MeasuredPair(record.measured_pair).state_rows)
     dz = np.moveaxis(dS[:, :, rows], 1, 2) / np.asarray(std, float)[None, :, None]
-    cov = fisher.covariance(dz.reshape(-1, dz.shape[2]))
+    return dz / sys.scales  # SI: dz/dtheta_i / std
+
+
+def fisher_covariance(J: np.ndarray, n: int | None = None) -> np.ndarray:
+    """Cramer-Rao covariance (SI) from the first n samples of _weighted_sensitivities."""
+    from ..estimation import fisher
+
+    J = J if n is None else J[:n]
+    return fisher.covariance(J.reshape(-1, J.shape[-1]))
+
+
+def _correlation(cov: np.ndarray) -> np.ndarray:
     d = np.sqrt(np.diag(cov))
     return cov / d[:, None] / d[None, :]
+
+
+def _bound_correlation(sc: Scenario, Omega_z: float, record, std) -> np.ndarray:
+    """Correlation matrix of the Cramer-Rao bound of the 8 unknowns (crb_at gives the
+    diagonal only): the same exact sensitivities, weighted by the noise stds."""
+    return _correlation(fisher_covariance(_weighted_sensitivities(sc, Omega_z, record, std)))
+
+
+def _efficient_curve(J: np.ndarray, k_curve: np.ndarray, tol: np.ndarray,
+                     seed: int) -> list[float | None]:
+    """P(all 8 within tolerance) for an efficient estimator at each point of the curve:
+    the bound from the samples before that point (None where it is not finite)."""
+    rng = np.random.default_rng(seed)
+    out: list[float | None] = []
+    for k in k_curve:
+        cov = fisher_covariance(J, int(k))
+        sig = np.sqrt(np.diag(cov))
+        if not (np.all(np.isfinite(sig)) and np.all(sig > 0)):
+            out.append(None)
+            continue
+        e = _gaussian_draws(_correlation(cov), rng, CURVE_DRAWS)
+        out.append(float(np.mean(np.all(np.abs(e) * sig <= tol, axis=1))))
+    return out
 
 
 def _gaussian_draws(corr: np.ndarray, rng: np.random.Generator,
@@ -362,6 +416,43 @@ class SweepResult:
             value = None if math.isinf(v) else float(v)
         return {"deadline_fraction": fraction, "deadline_for_fraction_s": value,
                 "never_or_failed": late}
+
+    def within_curve(self) -> dict:
+        """Fraction of ALL gyros with all 8 within tolerance at evenly spaced times up to
+        the deadline, beside an efficient estimator's expected fraction at those times
+        (the bound from the samples before each; over the gyros with a bound)."""
+        t = curve_times(self.spec)
+        observed = [r["within_all_curve"] for r in self.ok
+                    if len(r.get("within_all_curve") or ()) == len(t)]
+        efficient = [r["p_eff_all_curve"] for r in self.ok
+                     if len(r.get("p_eff_all_curve") or ()) == len(t)]
+        n = max(1, len(self.rows))
+        frac = [sum(c[j] for c in observed) / n for j in range(len(t))] if self.rows else []
+        eff = []
+        for j in range(len(t)):
+            v = [c[j] for c in efficient if c[j] is not None]
+            eff.append(float(np.mean(v)) if v else None)
+        return {"t_s": t, "fraction_within_tol": frac,
+                "efficient_fraction_within_tol": eff if efficient else None}
+
+    def curve_deadlines(self, fraction: float = DEADLINE_FRACTION) -> dict:
+        """From within_curve: the first time from which the observed fraction stays at or
+        above `fraction` to the deadline, and the first time an efficient estimator's
+        expected fraction reaches it (None: not within the run)."""
+        c = self.within_curve()
+        t, obs, eff = c["t_s"], c["fraction_within_tol"], c["efficient_fraction_within_tol"]
+        instant = None
+        for j in range(len(obs) - 1, -1, -1):
+            if obs[j] < fraction:
+                break
+            instant = t[j]
+        efficient = None
+        for tj, v in zip(t, eff or [], strict=False):
+            if v is not None and v >= fraction:
+                efficient = tj
+                break
+        return {"instant_deadline_for_fraction_s": instant,
+                "efficient_deadline_for_fraction_s": efficient}
 
     def bound_summary(self) -> dict | None:
         """The lot against the Cramer-Rao bound at the deadline (None without noise)."""
@@ -435,9 +526,11 @@ class SweepResult:
             "deadline_s": self.spec.the_deadline,
             "convergence_time_s": {"p50": _pct(conv, 50), "p95": _pct(conv, 95),
                                    "never": len(ok) - len(conv),
-                                   **self.deadline_for(DEADLINE_FRACTION)},
+                                   **self.deadline_for(DEADLINE_FRACTION),
+                                   **self.curve_deadlines(DEADLINE_FRACTION)},
             "per_unknown": per,
             "bound": self.bound_summary(),
+            "within_curve": self.within_curve(),
             "wall_s": self.wall_s, "n_workers": self.n_workers,
             "gyros_per_minute": self.throughput_per_min(),
             "failures": [{"gyro": r["gyro"], "reason": r["reason"]} for r in self.failed],
@@ -556,8 +649,21 @@ def histograms(res: SweepResult, path: Path) -> Path:
     ax.hist(wall, bins=20, color="C2")
     ax.set_xlabel("wall time per gyro (s)")
     ax.set_ylabel("gyros")
-    for a in axes.flat[10:]:
-        a.axis("off")
+    axes.flat[10].axis("off")
+    ax = axes.flat[11]
+    curve = res.within_curve()
+    if curve["t_s"]:
+        t_ms = np.array(curve["t_s"]) * 1e3
+        ax.plot(t_ms, np.array(curve["fraction_within_tol"]) * 100, "C0", label="observer")
+        if curve["efficient_fraction_within_tol"] is not None:
+            eff = [np.nan if v is None else 100 * v
+                   for v in curve["efficient_fraction_within_tol"]]
+            ax.plot(t_ms, eff, "k--", label="efficient (CRB)")
+        ax.axhline(100 * DEADLINE_FRACTION, color="grey", lw=0.8)
+        ax.set_ylim(0, 102)
+        ax.legend(fontsize=8)
+    ax.set_xlabel("time (ms)")
+    ax.set_ylabel("% of gyros, all 8 within tolerance")
     axes.flat[10].text(0, 0.5, f"{res.summary()['fraction_all_within_at_deadline']:.1%} all "
                        f"within 1% at {dl:g} ms\n{len(res.failed)} failed\n"
                        f"{res.throughput_per_min():.1f} gyros/min on {res.n_workers} workers",
