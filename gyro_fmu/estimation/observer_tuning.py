@@ -56,7 +56,7 @@ class ObserverTuning:
         1.0, "rad/s", "amplitude of the rate motion to follow at rate_bandwidth (rate_model "
         "0 and 2)")
     rate_dwell: float = _tuning(
-        10.0, "s", "rate_model 0: mean time the rate keeps one behaviour (constant, rough, "
+        100.0, "s", "rate_model 0: mean time the rate keeps one behaviour (constant, rough, "
         "slow, agile) before it may switch")
     q_Omega: float = _tuning(
         1.0e9, "rad2/s5", "rate_model 3 only: spectral density of the white noise driving "
