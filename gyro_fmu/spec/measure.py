@@ -166,7 +166,7 @@ def rate_model_text(tun: ObserverTuning) -> str:
     follow = (f"rate_bandwidth {d.get('rate_bandwidth', float('nan')):g} Hz, "
               f"rate_span {d.get('rate_span', float('nan')):g} rad/s")
     if kind == 0:
-        return (f"rate_model 0 (adaptive: constant/slow/agile mixed), {follow}, "
+        return (f"rate_model 0 (adaptive: constant/rough/slow/agile mixed), {follow}, "
                 f"rate_dwell {d.get('rate_dwell', float('nan')):g} s")
     if kind == 1:
         return "rate_model 1 (constant)"
