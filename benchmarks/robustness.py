@@ -17,7 +17,8 @@ from pathlib import Path
 
 from gyro_fmu.fmu.build import MODELS_DIR
 from gyro_fmu.model.parameters import PARAMETER_NAMES
-from gyro_fmu.system.sweep import SweepSpec, ToleranceModel, run_sweep, write_outputs
+from gyro_fmu.system.sweep import SweepSpec, ToleranceModel, run_sweep
+from gyro_fmu.system.sweep_report import write_outputs
 
 
 def main() -> None:

@@ -207,7 +207,8 @@ def test_co_simulation_interrupted_carries_the_points_so_far(models_dir):
 
 
 def test_ctrl_c_during_a_sweep_keeps_every_finished_row(models_dir, tmp_path):
-    from gyro_fmu.system.sweep import SweepSpec, ToleranceModel, run_sweep, write_outputs
+    from gyro_fmu.system.sweep import SweepSpec, ToleranceModel, run_sweep
+    from gyro_fmu.system.sweep_report import write_outputs
 
     spec = SweepSpec(ToleranceModel("park-horowitz", {}, {"kxy": 0.05}), n=12,
                      stop_time=0.002, deadline=0.002)

@@ -10,7 +10,8 @@ import pytest
 
 pytest.importorskip("dask.distributed")
 
-from gyro_fmu.system.sweep import SweepSpec, ToleranceModel, run_sweep, write_outputs
+from gyro_fmu.system.sweep import SweepSpec, ToleranceModel, run_sweep
+from gyro_fmu.system.sweep_report import write_outputs
 
 
 def test_tolerance_draws_are_seeded_and_bounded():
@@ -64,7 +65,7 @@ def test_three_gyro_sweep_with_one_failure(tmp_path, models_dir):
     assert len(curve["t_s"]) == len(curve["fraction_within_tol"]) == 40
     assert curve["t_s"][-1] == pytest.approx(spec.stop_time)
     assert all(0 <= v <= 1 for v in curve["efficient_fraction_within_tol"] if v is not None)
-    from gyro_fmu.system.cli import _print_bound
+    from gyro_fmu.system.sweep_cli import _print_bound
 
     _print_bound(b)
     _print_bound(None)
@@ -91,8 +92,8 @@ def test_crb_at_keeps_its_precision_at_tiny_displacements(m):
     relative to each unknown (and Omega_z absolute) must not change."""
     from gyro_fmu.estimation.identify import crb_at
     from gyro_fmu.model.parameters import preset
+    from gyro_fmu.system.lot_bound import bound_correlation
     from gyro_fmu.system.scenario import scenario
-    from gyro_fmu.system.sweep import _bound_correlation
 
     p0 = preset("park-horowitz")
     p1 = preset("park-horowitz", m=m)
@@ -107,8 +108,8 @@ def test_crb_at_keeps_its_precision_at_tiny_displacements(m):
         ref = 1.0 if name == "Omega_z" else getattr(p0, name)
         ref1 = 1.0 if name == "Omega_z" else getattr(p1, name)
         assert b[name] / ref1 == pytest.approx(a[name] / ref, rel=1e-9), name
-    c0 = _bound_correlation(scenario("default"), 1.0, rec, std0)
-    c1 = _bound_correlation(scenario("default", overrides={"m": m}), 1.0, rec, std1)
+    c0 = bound_correlation(scenario("default"), 1.0, rec, std0)
+    c1 = bound_correlation(scenario("default", overrides={"m": m}), 1.0, rec, std1)
     assert np.allclose(np.diag(c0), 1.0) and np.allclose(c0, c0.T)
     assert np.allclose(c1, c0, atol=1e-9)
 
@@ -117,13 +118,13 @@ def test_bound_covariance_matches_crb_at():
     """The sweep's covariance (correlations, the curve) is crb_at's: same sensitivities,
     same diagonal, over the whole record and over its first samples."""
     from gyro_fmu.estimation.identify import crb_at
+    from gyro_fmu.system.lot_bound import fisher_covariance, weighted_sensitivities
     from gyro_fmu.system.scenario import scenario
-    from gyro_fmu.system.sweep import _weighted_sensitivities, fisher_covariance
 
     sc = scenario("default")
     rec = _drive_record(sc.params)
     std = (6.6e-13, 4.8e-13)
-    J = _weighted_sensitivities(sc, 1.0, rec, std)
+    J = weighted_sensitivities(sc, 1.0, rec, std)
     for n in (rec.time.size, 1000):
         sig = np.sqrt(np.diag(fisher_covariance(J, n)))
         crb = crb_at(sc.params, 1.0, rec.head(n), std)
@@ -131,14 +132,15 @@ def test_bound_covariance_matches_crb_at():
 
 
 def _result(conv):
-    from gyro_fmu.system.sweep import SweepResult
+    from gyro_fmu.system.sweep_report import SweepResult
 
     rows = [{"gyro": i, "status": "ok", "conv_s_all": c} for i, c in enumerate(conv)]
     return SweepResult(rows, SweepSpec(n=len(rows)), 1.0, 1)
 
 
 def test_within_curve_and_its_deadlines():
-    from gyro_fmu.system.sweep import SweepResult, curve_times
+    from gyro_fmu.system.lot_bound import curve_times
+    from gyro_fmu.system.sweep_report import SweepResult
 
     spec = SweepSpec(n=4, stop_time=0.004, step=1e-4)
     t = curve_times(spec)
