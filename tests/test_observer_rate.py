@@ -196,3 +196,14 @@ def test_bad_rate_tuning_is_refused_by_name(field, value, words):
     with pytest.raises(ValueError, match=field) as exc:
         ObserverTuning(**{field: value})
     assert words in str(exc.value)
+
+
+def test_a_state_with_the_wrong_number_of_rate_probabilities_is_refused():
+    """set_state checks mu and c against the observer's rate models (each on its own: a
+    chained comparison once let mu and c of the same wrong length through)."""
+    obs = GyroStateObserver(scenario("default").params, 0.0, 1, ObserverTuning())
+    state = obs.get_state()
+    state["rate_filters"]["mu"] = state["rate_filters"]["mu"][:3]
+    state["rate_filters"]["c"] = state["rate_filters"]["c"][:3]
+    with pytest.raises(ValueError, match="rate filters"):
+        obs.set_state(state)

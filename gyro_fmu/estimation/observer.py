@@ -68,8 +68,7 @@ def _ekf_step(model, noise, lim, xs, Ps, c, mu, x, P, L, peak, nu2, mon, Fr, Qr,
     if pv > 0.0:
         peak[0] = max(peak[0], pk0)
         peak[1] = max(peak[1], pk1)
-        for i in range(4):
-            P[i, i] += pv
+        for i in range(4):  # on every filter; P is their mixture again after the predict
             for j in range(xs.shape[0]):
                 Ps[j, i, i] += pv
     rate.predict(m, xs, Ps, mu, c, Pi, x, P, Fr, Qr, qpar, peak, ux, uy, h)
@@ -425,7 +424,7 @@ class GyroStateObserver:
         M = len(rate.model_names(tuning))
         xs, Ps = np.array(rf["x"], dtype=float), np.array(rf["P"], dtype=float)
         mu, c = np.array(rf["mu"], dtype=float), np.array(rf["c"], dtype=float)
-        if xs.shape != (M, n) or Ps.shape != (M, n, n) or mu.shape != c.shape != (M,):
+        if xs.shape != (M, n) or Ps.shape != (M, n, n) or mu.shape != (M,) or c.shape != (M,):
             raise ValueError(
                 f"observer state has rate filters x {xs.shape}, P {Ps.shape}, mu {mu.shape}; "
                 f"expected ({M}, {n}), ({M}, {n}, {n}), ({M},) for its rate models"

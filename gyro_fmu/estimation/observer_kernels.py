@@ -326,14 +326,15 @@ def linearize(model, x, ux, uy, h):  # pragma: no cover
 
 
 @njit(cache=True)
-def predict_about(xbar, s1, Phi, S, x, P, Fr, Qr, qpar):  # pragma: no cover
+def predict_about(xbar, s1, Phi, S, x, P, Fr, Qr, qpar, q0, q1):  # pragma: no cover
     """Propagate one filter's x, P in place to t + h, linearized about xbar.
 
     (s1, Phi, S) is the held step of xbar (linearize): x[:4] -> s1 + Phi (x[:4] -
-    xbar[:4]) + S (x[4:12] - xbar[4:12]); the parameters are constant (random walk of
-    variance qpar per step); the rate block x[I_OM:] -> Fr x[I_OM:] with process noise
-    Qr. P -> F P F' + Q with F's structure used (rows 4..10 are the identity), symmetrized.
-    For xbar = x this is the EKF prediction.
+    xbar[:4]) + S (x[4:12] - xbar[4:12]), process noise q0 on x, vx and q1 on y, vy;
+    the parameters are constant (random walk of variance qpar per step); the rate block
+    x[I_OM:] -> Fr x[I_OM:] with process noise Qr. P -> F P F' + Q with F's structure
+    used (rows 4..10 are the identity), symmetrized. For xbar = x this is the EKF
+    prediction.
     """
     n = x.shape[0]
     r = n - I_OM
@@ -387,6 +388,10 @@ def predict_about(xbar, s1, Phi, S, x, P, Fr, Qr, qpar):  # pragma: no cover
             for c in range(r):
                 acc += A[i, I_OM + c] * Fr[a, c]
             B[i, I_OM + a] = acc
+    B[0, 0] += q0
+    B[1, 1] += q0
+    B[2, 2] += q1
+    B[3, 3] += q1
     for i in range(I_PAR, I_OM):
         B[i, i] += qpar
     for a in range(r):

@@ -1,7 +1,7 @@
 """The observer's model of Omega_z(t): fixed, or adaptive by interacting multiple models.
 
 A user cannot know q_Omega (rad^2/s^5); the observer's innovations tell whether the
-rate moves. The adaptive rate model (the default) runs three filters that differ only
+rate moves. The adaptive rate model (the default) runs four filters that differ only
 in how Omega_z may move, mixed by the IMM algorithm (Blom & Bar-Shalom, IEEE Trans. AC
 33(8) 1988; Bar-Shalom, Li & Kirubarajan, "Estimation with Applications to Tracking and
 Navigation", 2001, sec. 11.6.6, eqs. 11.6.6-1 to -22):
@@ -17,7 +17,7 @@ q = rate_span^2 (2 pi f)^(2 r - 1) / (2 pi), follows a sine of amplitude rate_sp
 (Hz); it reproduces the best fixed tunings measured by hand (order 2, 10 Hz: 3.9e4
 against 1e4-1e5; order 3, 100 Hz: 1.6e13 against ~1e13; docs/observer-rate-model.md).
 
-The three filters share the plant's linearization (the held step of eq. 5 about the
+The four filters share the plant's linearization (the held step of eq. 5 about the
 combined estimate: observer_kernels.predict_about), so a step costs one held step, four
 corrections and four covariance propagations. A fixed rate model (constant, tracking
 at rate_bandwidth, or the expert q_Omega / omega_order) is the same code with one model.
@@ -68,8 +68,6 @@ def _process(order: int, q: float, size: int, h: float) -> tuple[np.ndarray, np.
     for a in range(order):
         for c in range(a, order):
             F[a, c] = h ** (c - a) / math.factorial(c - a)
-    if order == 1 and q == 0.0:
-        return F, Q
     for a in range(order):
         for c in range(order):
             pa, pc = order - 1 - a, order - 1 - c
@@ -204,14 +202,9 @@ def predict(model, xs, Ps, mu, c, Pi, x, P, Fr, Qr, qpar, peak, ux, uy, h):  # p
     and the parameters of a constant-rate filter reach 1 - 1e-16 within seconds and
     rounding breaks positive definiteness (lost at 3.09 s at noise 1e-4)."""
     s1, Phi, S = kern.linearize(model, x, ux, uy, h)
-    xbar = x.copy()
     mix(xs, Ps, mu, Pi, c)
     q0 = (STATE_NOISE * peak[0] / model.hgain[0]) ** 2
     q1 = (STATE_NOISE * peak[1] / model.hgain[1]) ** 2
-    for j in range(xs.shape[0]):
-        kern.predict_about(xbar, s1, Phi, S, xs[j], Ps[j], Fr[j], Qr[j], qpar)
-        Ps[j, 0, 0] += q0
-        Ps[j, 1, 1] += q0
-        Ps[j, 2, 2] += q1
-        Ps[j, 3, 3] += q1
+    for j in range(xs.shape[0]):  # x (the linearization point) is replaced only below
+        kern.predict_about(x, s1, Phi, S, xs[j], Ps[j], Fr[j], Qr[j], qpar, q0, q1)
     combine(xs, Ps, c, x, P)
