@@ -4,6 +4,7 @@ import numpy as np
 from pythonfmu.enums import Fmi2Status
 
 from gyro_fmu.estimation.observer import ObserverDivergedError, ObserverTuning
+from gyro_fmu.estimation.observer_rate import RATE_KINDS
 from gyro_fmu.fmu.slave import GyroSlave, Var, dataclass_from_parameters, dataclass_parameters
 from gyro_fmu.model.parameters import DEFAULT_PRESET, PARAMETER_BOUNDS, PARAMETER_UNITS, PRESETS
 from gyro_fmu.system.scenario import default_initial_guess
@@ -14,6 +15,7 @@ _ESTIMATED = ("Omega_z", "kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m")
 #: Status-1 warnings logged per instance (a noisy run may enter and leave status 1 often).
 _MAX_WARNINGS = 3
 _HAT = {"Omega_z": "Omega_hat"}  # the patent's Omega_z' is published as Omega_hat
+#: What each of observer_rate.RATE_KINDS means, for the p_rate_* descriptions.
 _RATE_KINDS = {"constant": "Omega_z held",
                "rough": "Omega_z wandering (random walk) at up to a tenth of rate_bandwidth",
                "slow": "Omega_z moving smoothly at up to a tenth of rate_bandwidth",
@@ -55,9 +57,9 @@ class GyroObserver(GyroSlave):
           for n in _ESTIMATED),
         *(Var(f"sigma_{n}", "output", 0.0, _UNITS[n], f"1-sigma uncertainty of {n}", min=0.0)
           for n in _ESTIMATED),
-        *(Var(f"p_rate_{k}", "output", 1.0 / 3.0, "1",
+        *(Var(f"p_rate_{k}", "output", 1.0 / len(RATE_KINDS), "1",
               f"probability that the rate is {k} ({_RATE_KINDS[k]}; adaptive rate model; "
-              "a fixed one: 1 for its kind, 0 else)", min=0.0, max=1.0) for k in _RATE_KINDS),
+              "a fixed one: 1 for its kind, 0 else)", min=0.0, max=1.0) for k in RATE_KINDS),
         Var("status", "output", 0.0, "1",
             "observer health: 0 ok; 1 warning (innovations outside their band, logged: the "
             "estimates may be off more than their sigmas say); 2 lost (the filter diverged "

@@ -45,8 +45,7 @@ class ObserverTuning:
     rate_model: int = _tuning(
         0, "1", "model of Omega_z(t): 0 adaptive (the observer finds from its innovations "
         "whether the rate is constant, wandering, slow or agile: an interacting-multiple-model "
-        "filter, "
-        "docs/observer-rate-model.md); 1 constant; 2 tracking (follows rate_span at "
+        "filter, docs/observer-rate-model.md); 1 constant; 2 tracking (follows rate_span at "
         "rate_bandwidth); 3 expert (q_Omega on the omega_order-th derivative)", max=3)
     rate_bandwidth: float = _tuning(
         150.0, "Hz", "fastest rate motion to follow (rate_model 0 and 2): the agile model "

@@ -57,8 +57,7 @@ def run_inprocess(sc: Scenario, noise: MeasurementNoise | None = None) -> CoSimu
         row[0:4] = t, ux, 0.0, Om
         row[4:8] = z
         row[8:10] = plant.accelerations()
-        row[10:30] = observer.output_row()
-        row[30:34] = list(observer.rate_probabilities().values())
+        row[10:] = [*observer.output_row(), *observer.rate_probabilities().values()]
         if k == sc.n_steps:
             break
         plant.step(ux, 0.0, Om, h)
