@@ -14,8 +14,19 @@ from .errors import GyroFmuError
 def _cmd_build(args: argparse.Namespace) -> int:
     from .fmu.build import build_all
 
-    for path in build_all(Path(args.dest)):
+    for path in build_all(Path(args.dest), flavour=args.flavour):
         print(f"built {path.resolve()}")
+    return 0
+
+
+def _cmd_fmus(args: argparse.Namespace) -> int:
+    from .fmu.build import NATIVE_NAMES, copy_fmu, prebuilt_fmu
+
+    dest = Path(args.dest)
+    for version in (2, 3) if args.fmi == "both" else (int(args.fmi),):
+        for name in NATIVE_NAMES:
+            folder = dest / f"fmi{version}" if args.fmi == "both" else dest
+            print(f"wrote {copy_fmu(prebuilt_fmu(name, version), folder).resolve()}")
     return 0
 
 
@@ -48,7 +59,18 @@ def parser() -> argparse.ArgumentParser:
     b = sub.add_parser("build", help=f"build {', '.join(FMU_NAMES)} into models/")
     b.add_argument("--dest", default=str(MODELS_DIR),
                    help="output folder (default models/ under the working directory)")
+    b.add_argument("--flavour", choices=("native", "pythonfmu"), default="native",
+                   help="native (default): the C FMUs of the package for GyroPlant, "
+                   "TwoToneDrive, RateProfile; pythonfmu: their pythonfmu adapters over the "
+                   "same C core instead (the other FMUs are pythonfmu FMUs either way)")
     b.set_defaults(func=_cmd_build)
+
+    f = sub.add_parser("fmus", help="copy the native FMUs (GyroPlant, TwoToneDrive, "
+                       "RateProfile; every platform, FMI 2.0 and 3.0) out for your own tool")
+    f.add_argument("--dest", default="fmus", help="output folder (default fmus/)")
+    f.add_argument("--fmi", choices=("2", "3", "both"), default="both",
+                   help="FMI version (default both, into DEST/fmi2 and DEST/fmi3)")
+    f.set_defaults(func=_cmd_fmus)
 
     v = sub.add_parser("validate", help="re-simulate FMUs and compare with the reference "
                        "results they carry (fmi-ls-ref); exit 1 on any difference")

@@ -22,3 +22,31 @@ def models_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     dest = tmp_path_factory.mktemp("models")
     build_all(dest)
     return dest
+
+
+@pytest.fixture(scope="session")
+def pythonfmu_models(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The pythonfmu flavour of the native FMUs (GyroPlant, TwoToneDrive, RateProfile):
+    thin adapters over the same C core, built on request."""
+    from gyro_fmu.fmu.build import NATIVE_NAMES
+
+    dest = tmp_path_factory.mktemp("pythonfmu")
+    build_all(dest, NATIVE_NAMES, flavour="pythonfmu")
+    return dest
+
+
+@pytest.fixture(scope="session")
+def pythonfmu_all(models_dir: Path, pythonfmu_models: Path,
+                  tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Every FMU in its pythonfmu flavour, in one folder: for the tests that hold the
+    pythonfmu adapter's own semantics (a refused value discarded at the next step, JSON
+    FMU states, the loader). The native FMUs' semantics: test_native_fmi_layer.py."""
+    import shutil
+
+    from gyro_fmu.fmu.build import FMU_NAMES, NATIVE_NAMES
+
+    dest = tmp_path_factory.mktemp("pythonfmu_all")
+    for name in FMU_NAMES:
+        shutil.copy2((pythonfmu_models if name in NATIVE_NAMES else models_dir) / f"{name}.fmu",
+                     dest / f"{name}.fmu")
+    return dest

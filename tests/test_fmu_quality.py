@@ -117,18 +117,18 @@ BAD_INPUTS = [
 
 @pytest.mark.parametrize(("name", "params", "action", "message"), BAD_INPUTS,
                          ids=[f"{r[0]}-{r[2][0]}-{r[2][1]}-{r[3][:20]}" for r in BAD_INPUTS])
-def test_bad_input_is_refused_with_a_message_and_never_crashes(models_dir, name, params, action,
+def test_bad_input_is_refused_with_a_message_and_never_crashes(pythonfmu_all, name, params, action,
                                                               message):
-    assert_bad_input_refused(models_dir / f"{name}.fmu", params, action, message, H)
+    assert_bad_input_refused(pythonfmu_all / f"{name}.fmu", params, action, message, H)
 
 
 @pytest.mark.parametrize(("name", "params"), [(r[0], r[1]) for r in BAD_INPUTS
                                               if r[2][0] == "init"],
                          ids=[f"{r[0]}-{r[3][:20]}" for r in BAD_INPUTS if r[2][0] == "init"])
-def test_a_host_that_ignores_discard_reads_no_plausible_number(models_dir, name, params):
+def test_a_host_that_ignores_discard_reads_no_plausible_number(pythonfmu_all, name, params):
     """After a refused initialization or parameter every Real output is NaN, at once and
     after any number of (discarded) steps: never the zeros of before initialization."""
-    inst = Instance(models_dir / f"{name}.fmu", "failed", params)
+    inst = Instance(pythonfmu_all / f"{name}.fmu", "failed", params)
     outputs = [v for v, x in inst.vars.items() if x.causality == "output" and x.type == "Real"]
     assert all(math.isnan(v) for v in inst.get(outputs)), inst.get(outputs)
     for _ in range(3):
@@ -165,17 +165,17 @@ def test_many_instances_in_one_process_are_independent(models_dir):
         inst.close()
 
 
-def test_a_different_gyro_fmu_in_the_host_is_reported(models_dir, monkeypatch):
+def test_a_different_gyro_fmu_in_the_host_is_reported(pythonfmu_all, monkeypatch):
     """The host's gyro_fmu runs inside our FMUs (one module cache per process): when its
     version differs from the one the FMU ships, the FMU says so in its log."""
     import gyro_fmu
 
     shipped = gyro_fmu.__version__
-    same = Instance(models_dir / "TwoToneDrive.fmu", "same")
+    same = Instance(pythonfmu_all / "TwoToneDrive.fmu", "same")
     assert "ships gyro_fmu" not in same.messages()
     same.close()
     monkeypatch.setattr(gyro_fmu, "__version__", "0.0.0-host")
-    other = Instance(models_dir / "TwoToneDrive.fmu", "other")
+    other = Instance(pythonfmu_all / "TwoToneDrive.fmu", "other")
     text = other.messages()
     assert f"ships gyro_fmu {shipped}, but the host process had already imported gyro_fmu " \
            "0.0.0-host" in text

@@ -4,9 +4,11 @@ that are not finite, parameter messages, and a short fuzz run of mutated states.
 
 from __future__ import annotations
 
+import base64
 import json
 import math
 import os
+import struct
 import subprocess
 import sys
 import textwrap
@@ -60,13 +62,19 @@ def _crafted(kind: str, s: dict) -> dict:
     elif kind == "extra-key":
         s["extra"] = 1
     elif kind == "model-length":
-        s["model"]["s"] = [0.0, 0.0, 0.0]
+        s["model"]["core"] = base64.b64encode(base64.b64decode(s["model"]["core"])[:-8]).decode()
     elif kind == "model-key":
-        s["model"]["rng"]["state"] = {"state": 1}
+        s["model"] = {"kore": s["model"]["core"]}
     elif kind == "model-type":
-        s["model"]["held"][1] = "x"
-    elif kind == "model-nan":
-        s["model"]["s"][0] = float("nan")
+        s["model"]["core"] = 5
+    elif kind == "model-nan":  # the plant's x, after its 7 parameters and 4 noise levels
+        raw = bytearray(base64.b64decode(s["model"]["core"]))
+        raw[88:96] = struct.pack("<d", float("nan"))
+        s["model"]["core"] = base64.b64encode(bytes(raw)).decode()
+    elif kind == "model-other-plant":  # kxx of another plant
+        raw = bytearray(base64.b64decode(s["model"]["core"]))
+        raw[0:8] = struct.pack("<d", 4e8)
+        s["model"]["core"] = base64.b64encode(bytes(raw)).decode()
     return s
 
 
@@ -79,20 +87,21 @@ CRAFTED = {
     "flags": "flags must be [str|null, str|null, bool]",
     "times": "times must be two finite numbers",
     "extra-key": "unexpected ['extra']",
-    "model-length": "model.s must be a list of length 4, got length 3",
-    "model-key": "model.rng.state must have the keys",
-    "model-type": "model.held[1] must be float, got str",
-    "model-nan": "model.s[0]=nan is not finite",
+    "model-length": "plant state of 432 bytes, 440 expected",
+    "model-key": "model must have the keys ['core']",
+    "model-type": "model.core must be str, got int",
+    "model-nan": "the saved plant's x=nan is not finite",
+    "model-other-plant": "the saved plant has other parameters or noise than the variables",
 }
 
 
 @pytest.mark.parametrize("kind", list(CRAFTED))
-def test_a_crafted_plant_state_is_refused_by_name_and_never_crashes(models_dir, kind):
+def test_a_crafted_plant_state_is_refused_by_name_and_never_crashes(pythonfmu_all, kind):
     """Only the variables, flags, times and model structure the slave saves are accepted;
     anything else: fmi2SetFMUstate returns fmi2Error with a log naming it, outputs NaN,
     steps discarded, and
     terminate/free work (a state naming get_real/do_step used to give fmi2Fatal)."""
-    inst = Instance(models_dir / "GyroPlant.fmu", "crafted")
+    inst = Instance(pythonfmu_all / "GyroPlant.fmu", "crafted")
     inst.set({"ux": 1e-7, "Omega_z": 1.0})
     assert inst.step(H) == 0
     _restore_refused(inst, _crafted(kind, _saved(inst)))
@@ -118,10 +127,10 @@ def test_a_crafted_observer_state_of_another_shape_is_refused(models_dir):
     inst.close()
 
 
-def test_a_never_initialized_state_un_initializes_the_instance(models_dir):
+def test_a_never_initialized_state_un_initializes_the_instance(pythonfmu_all):
     """Restoring a state saved before initialization drops the library model: doStep is
     refused by name (fmi2Error), and initialization makes the instance step again."""
-    inst = Instance(models_dir / "GyroPlant.fmu", "uninit", initialize=False)
+    inst = Instance(pythonfmu_all / "GyroPlant.fmu", "uninit", initialize=False)
     early = inst.slave.getFMUstate()
     assert inst.step(H) == 3
     assert "fmi2DoStep before fmi2ExitInitializationMode" in inst.messages()
@@ -149,12 +158,12 @@ def _input_table(rows: dict) -> np.ndarray:
                     dtype=[("time", float)] + [(n, float) for n in columns])
 
 
-def test_simulate_fmu_goes_on_after_a_recoverable_bad_input(models_dir):
+def test_simulate_fmu_goes_on_after_a_recoverable_bad_input(pythonfmu_all):
     """One NaN input row: the step is discarded once (fmi2Terminated false), fmpy retries it
     with the same NaN, and the FMU does it with the kept value (fmi2Warning). The run
     reaches the stop time (it used to end silently at 502 of 1001 rows)."""
     messages = []
-    result = fmpy.simulate_fmu(str(models_dir / "GyroPlant.fmu"), stop_time=1000 * H,
+    result = fmpy.simulate_fmu(str(pythonfmu_all / "GyroPlant.fmu"), stop_time=1000 * H,
                                step_size=H, output_interval=H, timeout=60,
                                input=_input_table({("ux", 500): float("nan")}),
                                debug_logging=True,
@@ -170,23 +179,23 @@ def test_simulate_fmu_goes_on_after_a_recoverable_bad_input(models_dir):
     ({"m": -1.0}, {}, "m=-1.0 is below its minimum 0: use > 0"),
     ({}, {("Omega_z", 300): 1e300}, "Omega_z=1e+300 held over the step"),
 ])
-def test_simulate_fmu_raises_when_the_fmu_cannot_go_on(models_dir, start, rows, cause):
+def test_simulate_fmu_raises_when_the_fmu_cannot_go_on(pythonfmu_all, start, rows, cause):
     """A refused parameter or a step that overflowed: fmi2Terminated is answered with
     fmi2Error and the cause logged, so fmpy raises (m=-1 used to return 2 rows, no error)."""
     messages = []
     with pytest.raises(FMICallException, match="fmi2GetBooleanStatus failed"):
-        fmpy.simulate_fmu(str(models_dir / "GyroPlant.fmu"), stop_time=1000 * H,
+        fmpy.simulate_fmu(str(pythonfmu_all / "GyroPlant.fmu"), stop_time=1000 * H,
                           step_size=H, output_interval=H, timeout=60, start_values=start,
                           input=_input_table(rows),
                           logger=lambda *a: messages.append(a[4].decode()))
     assert any("cannot go on" in m and cause in m for m in messages), messages
 
 
-def test_the_loader_message_reaches_a_host_that_does_not_format(models_dir):
+def test_the_loader_message_reaches_a_host_that_does_not_format(pythonfmu_all):
     """gyro_fmu's own master (and the harness) log through a plain ctypes callback that
     gets the message only: the loader formats it itself (it used to arrive as
     "%s cannot go on (...): %s")."""
-    inst = Instance(models_dir / "GyroPlant.fmu", "plain")
+    inst = Instance(pythonfmu_all / "GyroPlant.fmu", "plain")
     inst.set({"ux": 1e-7, "Omega_z": 1e300})
     assert inst.step(H) == 2
     with pytest.raises(FMICallException):
@@ -197,8 +206,8 @@ def test_the_loader_message_reaches_a_host_that_does_not_format(models_dir):
     inst.close()
 
 
-def test_a_recoverable_refusal_is_not_termination(models_dir):
-    inst = Instance(models_dir / "GyroPlant.fmu", "recoverable")
+def test_a_recoverable_refusal_is_not_termination(pythonfmu_all):
+    inst = Instance(pythonfmu_all / "GyroPlant.fmu", "recoverable")
     inst.set({"ux": float("nan")})
     assert inst.step(H) == 2
     assert inst.slave.getBooleanStatus(fmi2Terminated) is False  # pythonfmu said True
@@ -206,11 +215,11 @@ def test_a_recoverable_refusal_is_not_termination(models_dir):
     inst.close()
 
 
-def test_non_finite_outputs_are_the_error_of_the_fmu_that_made_them(models_dir):
+def test_non_finite_outputs_are_the_error_of_the_fmu_that_made_them(pythonfmu_all):
     """Omega_z = 1e300 is finite, so the input is accepted; the step makes NaN outputs:
     refused by the plant, naming the inputs it held (it used to return fmi2OK with NaN
     and the observer downstream was blamed for x_meas=nan)."""
-    inst = Instance(models_dir / "GyroPlant.fmu", "overflow")
+    inst = Instance(pythonfmu_all / "GyroPlant.fmu", "overflow")
     inst.set({"ux": 1e-7, "Omega_z": 1e300})
     assert inst.step(H) == 2
     text = inst.messages(min_status=3)
@@ -234,24 +243,24 @@ PARAMETER_MESSAGES = [  # (override, library ParameterError text, FMU log text)
 
 @pytest.mark.parametrize(("override", "library", "fmu"), PARAMETER_MESSAGES,
                          ids=[str(r[0]) for r in PARAMETER_MESSAGES])
-def test_parameter_messages_name_the_real_cause(models_dir, override, library, fmu):
+def test_parameter_messages_name_the_real_cause(pythonfmu_all, override, library, fmu):
     with pytest.raises(ParameterError) as err:
         validate_for_plant(preset(**override))
     assert library in str(err.value)
     assert "math range error" not in str(err.value) and "kxy" not in str(err.value)
-    inst = Instance(models_dir / "GyroPlant.fmu", "params", override)
+    inst = Instance(pythonfmu_all / "GyroPlant.fmu", "params", override)
     assert inst.step(H) == 2
     assert fmu in inst.messages(min_status=3)
     inst.close()
 
 
-def test_fuzzed_states_never_crash_the_host(models_dir):
+def test_fuzzed_states_never_crash_the_host(pythonfmu_all):
     """50 mutated states per FMU (bit flips, truncation, JSON-aware mutations), each
     deserialize -> set -> doStep -> terminate -> free in worker subprocesses."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
     from fuzz_states import run
 
-    rows = run(["GyroPlant", "GyroObserver"], 50, seed=1, batch=50, models=models_dir)
+    rows = run(["GyroPlant", "GyroObserver"], 50, seed=1, batch=50, models=pythonfmu_all)
     for row in rows:
         assert row["trials"] == 50 and row["crashes"] == row["fatal"] == 0, row
         assert row["refused"] >= 40, row
@@ -329,7 +338,7 @@ _ONE_PROCESS = textwrap.dedent("""
 """)
 
 
-def test_many_fmus_then_refusals_in_one_process_never_crash(models_dir, tmp_path):
+def test_many_fmus_then_refusals_in_one_process_never_crash(pythonfmu_all, tmp_path):
     """In one process: every FMU run by simulate_fmu with a logger, then the refused
     GyroPlant run (own logger; fmpy's default callbacks; validate_files on a copy whose
     reference inputs hold Omega_z=1e300; the same FMU extracted twice beside a live
@@ -341,11 +350,11 @@ def test_many_fmus_then_refusals_in_one_process_never_crash(models_dir, tmp_path
     code."""
     from test_hostile_validate import _copy
 
-    refused_copy = _copy(models_dir / "GyroPlant.fmu", tmp_path / "refused.fmu",
+    refused_copy = _copy(pythonfmu_all / "GyroPlant.fmu", tmp_path / "refused.fmu",
                          lambda n, d: d.replace(b",1.0\n", b",1e300\n")
                          if n.endswith("_in.csv") else d)
     here = Path(__file__).resolve().parent
-    proc = subprocess.run([sys.executable, "-c", _ONE_PROCESS, str(models_dir),
+    proc = subprocess.run([sys.executable, "-c", _ONE_PROCESS, str(pythonfmu_all),
                            str(refused_copy)], cwd=tmp_path, capture_output=True, text=True,
                           timeout=600, env={**os.environ, "PYTHONPATH": str(here)})
     assert proc.returncode == 0, (proc.returncode, proc.stdout[-3000:], proc.stderr[-3000:])

@@ -23,7 +23,7 @@ from gyro_fmu.cosim.master import (
     CoSimulationError,
     run_cosimulation,
 )
-from gyro_fmu.fmu.build import ensure_current, stale_sources
+from gyro_fmu.fmu.build import ensure_current, prebuilt_fmu, stale_sources
 from gyro_fmu.system.run import run_fmus
 from gyro_fmu.system.scenario import scenario
 
@@ -58,7 +58,8 @@ def test_refused_parameters_surface_with_the_fmus_own_message(models_dir):
     bad = Component("plant", models_dir / "GyroPlant.fmu", {"kxy": 1e9})
     with pytest.raises(CoSimulationError, match="not positive definite") as info:
         run_cosimulation([bad], [], 1e-4, 5e-6)
-    assert "plant (GyroPlant.fmu) refused the step at t=0" in str(info.value)
+    assert "plant: initialization failed" in str(info.value)  # the native FMU's error
+    assert "it said:\nGyroPlant: initialization failed: stiffness matrix" in str(info.value)
 
 
 def test_a_users_fmu_replaces_ours(models_dir, tmp_path):
@@ -111,22 +112,28 @@ def test_an_archive_is_unpacked_once_until_it_changes(models_dir, tmp_path):
 
 
 def test_a_stale_fmu_is_found_and_rebuilt(models_dir, tmp_path):
-    """An FMU built from older sources would run its old adapter on this gyro_fmu."""
-    fmu = tmp_path / "TwoToneDrive.fmu"
-    shutil.copy(models_dir / "TwoToneDrive.fmu", fmu)
-    assert stale_sources(fmu, "TwoToneDrive") == []
-    with zipfile.ZipFile(models_dir / "TwoToneDrive.fmu") as old, \
+    """A pythonfmu FMU built from older sources would run its old adapter on this
+    gyro_fmu; a native FMU that is not the package's is replaced by the package's."""
+    fmu = tmp_path / "GyroLoops.fmu"
+    shutil.copy(models_dir / "GyroLoops.fmu", fmu)
+    assert stale_sources(fmu, "GyroLoops") == []
+    with zipfile.ZipFile(models_dir / "GyroLoops.fmu") as old, \
             zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as new:
         for item in old.infolist():
             data = old.read(item.filename)
-            if item.filename == "resources/gyro_fmu/model/drive.py":
+            if item.filename == "resources/gyro_fmu/selfcal/loops.py":
                 data += b"# an older version\n"
             new.writestr(item, data)
         new.writestr("resources/gyro_fmu/removed_since.py", b"")
-    assert stale_sources(fmu, "TwoToneDrive") == [
-        "resources/gyro_fmu/model/drive.py", "resources/gyro_fmu/removed_since.py"]
-    assert ensure_current(("TwoToneDrive",), tmp_path) == [fmu]
-    assert stale_sources(fmu, "TwoToneDrive") == []
+    assert stale_sources(fmu, "GyroLoops") == [
+        "resources/gyro_fmu/removed_since.py", "resources/gyro_fmu/selfcal/loops.py"]
+    assert ensure_current(("GyroLoops",), tmp_path) == [fmu]
+    assert stale_sources(fmu, "GyroLoops") == []
+    assert ensure_current(("GyroLoops",), tmp_path) == []
+    native = tmp_path / "TwoToneDrive.fmu"
+    native.write_bytes(prebuilt_fmu("TwoToneDrive", 3).read_bytes())  # not the FMI 2.0 one
+    assert ensure_current(("TwoToneDrive",), tmp_path) == [native]
+    assert native.read_bytes() == prebuilt_fmu("TwoToneDrive").read_bytes()
     assert ensure_current(("TwoToneDrive",), tmp_path) == []
 
 
@@ -168,12 +175,12 @@ def test_a_refused_call_stops_the_compiled_loop_at_its_step_and_is_named(
         run_cosimulation(components, connections, 1e-4, 5e-6)
 
 
-def test_ctrl_c_stops_the_run_between_chunks_with_a_keyboard_interrupt(models_dir):
+def test_ctrl_c_stops_the_run_between_chunks_with_a_keyboard_interrupt(pythonfmu_all):
     """Raised inside an FMU's Python callback, Ctrl-C became fmi2Fatal (pythonfmu);
     the master holds it until the end of a chunk of steps and raises it there."""
     if signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
         pytest.skip("the default SIGINT handler is not installed")
-    drive = Component("drive", models_dir / "TwoToneDrive.fmu")
+    drive = Component("drive", pythonfmu_all / "TwoToneDrive.fmu")
     timer = threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGINT))
     timer.start()
     try:

@@ -163,18 +163,20 @@ def _shell_quote(value: str) -> str:
 
 
 def default_fmu(workdir: Path) -> Path:
-    """models/GyroPlant.fmu, built into workdir if the models folder has none."""
-    fmu = MODELS_DIR / "GyroPlant.fmu"
+    """A pythonfmu FMU to check: models/GyroObserver.fmu if there, else the pythonfmu
+    flavour of GyroPlant built into workdir. (The native FMUs need no settings: any host
+    loads them as they are.)"""
+    fmu = MODELS_DIR / "GyroObserver.fmu"
     if fmu.exists():
         return fmu
     from ..fmu.build import build_fmu
 
-    return build_fmu("GyroPlant", workdir)
+    return build_fmu("GyroPlant", workdir, flavour="pythonfmu")
 
 
 def doctor(fmu: Path | None = None, compile_host: bool = True) -> DoctorReport:
     """Work out the settings a non-Python importer needs and, unless told not to,
-    prove them by loading `fmu` (default models/GyroPlant.fmu) in a compiled C host."""
+    prove them by loading `fmu` (default: see default_fmu) in a compiled C host."""
     lib = find_libpython()
     paths, missing = required_paths()
     report = DoctorReport(

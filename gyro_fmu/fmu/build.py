@@ -1,4 +1,10 @@
-"""Build every FMU of fmu_src/ with pythonfmu, shipping the gyro_fmu package inside.
+"""Put the product's FMUs into a models folder: the native ones from the package, the
+others built by pythonfmu from fmu_src/, shipping the gyro_fmu package inside.
+
+GyroPlant, TwoToneDrive and RateProfile are native C FMUs (gyro_fmu.fmu.native), built
+with the package (`pip install`) and copied from it; `flavour="pythonfmu"` builds their
+pythonfmu adapters over the same C core instead. GyroObserver, GyroResonator and GyroLoops
+are still pythonfmu FMUs.
 
 The slave adapters are the package `gyro_fmu.fmu_src` (the repository's top-level
 fmu_src/, installed inside gyro_fmu by pyproject.toml), so an installed gyro_fmu builds
@@ -32,7 +38,9 @@ PACKAGE_DIR = Path(__file__).resolve().parents[1]
 #: directory at the time of use.
 MODELS_DIR = Path("models")
 #: Folders of the package that are not shipped inside the FMUs.
-NOT_SHIPPED = ("fmu_src", "__pycache__")
+NOT_SHIPPED = ("fmu_src", "__pycache__", "fmus")
+#: Compiled core libraries (gyro_fmu/core/lib/<platform>/) the shipped package loads.
+SHIPPED_BINARY_SUFFIXES = (".so", ".dll", ".dylib")
 
 
 def source_dir() -> Path | None:
@@ -51,7 +59,8 @@ def shipped_package_files() -> dict[str, Path]:
     """The gyro_fmu files every FMU carries, by their path inside the archive."""
     return {f"resources/gyro_fmu/{f.relative_to(PACKAGE_DIR).as_posix()}": f
             for f in PACKAGE_DIR.rglob("*")
-            if f.is_file() and f.suffix in (".py", ".c")
+            if f.is_file() and (f.suffix in (".py", ".c") or (
+                f.suffix in SHIPPED_BINARY_SUFFIXES and "lib" in f.relative_to(PACKAGE_DIR).parts))
             and not set(f.relative_to(PACKAGE_DIR).parts) & set(NOT_SHIPPED)}
 
 #: Capability flags, each true in fact (tests/test_fmu_quality.py holds them).
@@ -68,6 +77,11 @@ CAPABILITIES = {
 #: its slave class declares; `load_slave` reads it.
 FMU_NAMES = ("GyroPlant", "TwoToneDrive", "RateProfile", "GyroObserver", "GyroResonator",
              "GyroLoops")
+#: The native C FMUs (gyro_fmu.fmu.native), prebuilt in the package.
+NATIVE_NAMES = ("GyroPlant", "TwoToneDrive", "RateProfile")
+#: The FMUs built by pythonfmu (the other ones on request: flavour="pythonfmu").
+PYTHONFMU_NAMES = tuple(n for n in FMU_NAMES if n not in NATIVE_NAMES)
+FLAVOURS = ("native", "pythonfmu")
 #: Prefix of the private module names `load_slave` gives the slave sources.
 SLAVE_MODULE_PREFIX = "gyro_fmu_slave_"
 
@@ -104,12 +118,48 @@ def _load_slave_file(path: str, name: str, mtime_ns: int) -> Any | None:
     return getattr(module, name, None)
 
 
-def build_fmu(name: str, dest: Path = MODELS_DIR, reference: bool = True) -> Path:
-    """Build one FMU from fmu_src/NAME.py into dest; returns the .fmu path.
+def prebuilt_fmu(name: str, fmi_version: int = 2) -> Path:
+    """The package's prebuilt native FMU `name` (FMI 2.0 or 3.0); raises with the remedy
+    when it is missing or older than the C sources."""
+    from .native import PREBUILT_FMUS, prebuilt_problem
+
+    problem = prebuilt_problem()
+    path = PREBUILT_FMUS / f"fmi{fmi_version}" / f"{name}.fmu"
+    if problem is None and not path.is_file():
+        problem = f"{path} is missing: reinstall gyro_fmu"
+    if problem:
+        raise FileNotFoundError(problem)
+    return path
+
+
+def copy_fmu(source: Path, dest: Path) -> Path:
+    """Copy one FMU into dest, moved into place whole."""
+    dest.mkdir(parents=True, exist_ok=True)
+    fd, temp = tempfile.mkstemp(suffix=".fmu", prefix=f".{source.stem}-", dir=dest)
+    os.close(fd)
+    try:
+        shutil.copyfile(source, temp)
+        os.chmod(temp, 0o644)
+        os.replace(temp, dest / source.name)
+    except BaseException:
+        Path(temp).unlink(missing_ok=True)
+        raise
+    return dest / source.name
+
+
+def build_fmu(name: str, dest: Path = MODELS_DIR, reference: bool = True,
+              flavour: str = "native") -> Path:
+    """Put FMU `name` into dest; returns the .fmu path. A native FMU is copied from the
+    package (FMI 2.0); the others, and every one with flavour="pythonfmu", are built by
+    pythonfmu from fmu_src/NAME.py.
 
     reference: also simulate its default experiment and store the result inside
     the FMU (fmi-ls-ref), for `gyro-fmu validate` in users' CI.
     """
+    if flavour not in FLAVOURS:
+        raise ValueError(f"flavour={flavour!r}: use one of {FLAVOURS}")
+    if name in NATIVE_NAMES and flavour == "native":
+        return copy_fmu(prebuilt_fmu(name), Path(dest))
     sources = source_dir()
     if sources is None:
         raise FileNotFoundError("gyro_fmu.fmu_src (the FMU slave sources) is not installed: "
@@ -159,9 +209,20 @@ def _install_loader(path: Path) -> None:
                       "settings `gyro-fmu doctor` prints", stacklevel=3)
 
 
-def build_all(dest: Path = MODELS_DIR, names: tuple[str, ...] = FMU_NAMES) -> list[Path]:
-    """Build the named FMUs (all by default) into dest."""
-    return _ship_all_kernels([build_fmu(name, dest) for name in names])
+def build_all(dest: Path = MODELS_DIR, names: tuple[str, ...] = FMU_NAMES,
+              flavour: str = "native") -> list[Path]:
+    """Put the named FMUs (all by default) into dest (see build_fmu)."""
+    paths = [build_fmu(name, dest, flavour=flavour) for name in names]
+    _ship_all_kernels([p for p in paths if _is_pythonfmu(p)])
+    return paths
+
+
+def _is_pythonfmu(fmu: Path) -> bool:
+    try:
+        with zipfile.ZipFile(fmu) as z:
+            return any(n.startswith("resources/gyro_fmu/") for n in z.namelist())
+    except (OSError, zipfile.BadZipFile):
+        return False
 
 
 def _ship_all_kernels(paths: list[Path]) -> list[Path]:
@@ -233,8 +294,12 @@ def ensure_current(names: tuple[str, ...] = FMU_NAMES, dest: Path = MODELS_DIR) 
     built = []
     for name in names:
         path = dest / f"{name}.fmu"
-        if not path.exists() or stale_sources(path, name):
+        if name in NATIVE_NAMES:
+            if not path.exists() or _size_and_crc(path) != _size_and_crc(prebuilt_fmu(name)):
+                built.append(build_fmu(name, dest))
+        elif not path.exists() or stale_sources(path, name):
             built.append(build_fmu(name, dest))
-    if built:  # the new caches also belong in the FMUs that were current
-        _ship_all_kernels([dest / f"{n}.fmu" for n in names if (dest / f"{n}.fmu").exists()])
+    if any(_is_pythonfmu(p) for p in built):  # new caches belong in the current ones too
+        _ship_all_kernels([dest / f"{n}.fmu" for n in names
+                           if (dest / f"{n}.fmu").exists() and _is_pythonfmu(dest / f"{n}.fmu")])
     return built

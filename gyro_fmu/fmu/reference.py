@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import tempfile
 import zipfile
+import zlib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,7 +24,6 @@ from fmpy import read_model_description, simulate_fmu
 from fmpy.util import validate_signal, write_csv
 
 from ..errors import GyroFmuError
-from .build import load_slave
 from .fmpy_logger import rearm_default_logger
 
 LS_REF_DIR = "extra/org.fmi-standard.fmi-ls-ref"
@@ -52,6 +52,8 @@ def reference_inputs(model_name: str, stop_time: float, step: float) -> np.ndarr
     the slave-source folder, found by `gyro_fmu.fmu.build.load_slave`); an FMU without
     a slave source there, or a slave that declares nothing, runs without inputs.
     """
+    from .build import load_slave  # pythonfmu's builder: not needed by native FMUs
+
     slave = load_slave(model_name)
     declared = getattr(slave, "reference_inputs", None)
     return None if declared is None else declared(stop_time, step)
@@ -74,11 +76,14 @@ def _simulate(fmu: Path, inputs: np.ndarray | None, stop_time: float, step: floa
     return simulate_fmu(str(fmu), stop_time=stop_time, output_interval=step, input=inputs)
 
 
-def write_reference(fmu: Path) -> list[str]:
-    """Simulate the FMU's default experiment and store the result inside the FMU."""
+def write_reference(fmu: Path, inputs_of=None) -> list[str]:
+    """Simulate the FMU's default experiment and store the result inside the FMU.
+    inputs_of(stop_time, step) gives the inputs (see `input_table`); by default the slave
+    source's `reference_inputs`."""
     fmu = Path(fmu)
     name, stop_time, step = _experiment(fmu)
-    inputs = reference_inputs(name, stop_time, step)
+    inputs = (reference_inputs(name, stop_time, step) if inputs_of is None
+              else inputs_of(stop_time, step))
     result = _simulate(fmu, inputs, stop_time, step)
     root = Element("fmiReferences", {"xmlns:fmi-ls": _LS,
                                      "fmi-ls:fmi-ls-name": "org.fmi-standard.fmi-ls-ref",
@@ -94,7 +99,7 @@ def write_reference(fmu: Path) -> list[str]:
         for filename, table in files.items():
             path = Path(tmp) / filename
             write_csv(str(path), table)
-            z.write(path, f"{LS_REF_DIR}/{filename}")
+            z.write(path, f"{LS_REF_DIR}/{filename}", zipfile.ZIP_DEFLATED)
         z.writestr(MANIFEST, b'<?xml version="1.0" encoding="UTF-8"?>\n' + tostring(root))
     return sorted(files)
 
@@ -222,7 +227,8 @@ def validate_reference(fmu: Path, dy: float = 1e-6, dx: int = 1) -> list[SignalC
                 raise ReferenceResultError(f"member {bad} fails its CRC check: the archive is "
                                            "damaged; rebuild or copy it again")
             tables = _read_related(z)
-    except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError, ValueError, OSError) as exc:
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError, ValueError, OSError,
+            zlib.error) as exc:  # zlib: a damaged deflated member
         raise ReferenceResultError(f"not a readable FMU archive ({exc}): rebuild it with "
                                    "`gyro-fmu build` or copy it again") from None
     try:

@@ -37,7 +37,6 @@ import math
 import sys
 import traceback
 import warnings
-from dataclasses import dataclass
 from operator import itemgetter
 from pathlib import Path
 from typing import Any, ClassVar
@@ -48,6 +47,7 @@ from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Initial, Fmi2Status
 from pythonfmu.variables import Integer, Real
 
+from ..model.interfaces import Var
 from . import state as fmu_state
 from .host_status import ERROR, WARNING, HostStatus, host_library_mismatch
 from .units import UNITS
@@ -56,41 +56,6 @@ _FMAX = sys.float_info.max
 
 #: Log category of the full tracebacks behind error messages.
 DEBUG_CATEGORY = "logDebug"
-
-
-@dataclass(frozen=True)
-class Var:
-    """One FMU variable: what pythonfmu registers plus what it cannot write."""
-
-    name: str
-    causality: str  #: "parameter", "input" or "output"
-    start: float | int
-    unit: str | None  #: key of UNITS; None only for Integers
-    description: str
-    integer: bool = False
-    min: float | None = None
-    max: float | None = None
-    nominal: float | None = None
-    min_exclusive: bool = False  #: min itself is refused too (FMI's min is inclusive)
-
-    @property
-    def is_parameter(self) -> bool:
-        return self.causality == "parameter"
-
-    def range_problem(self, value: float) -> str | None:
-        """Why `value` is not acceptable for this variable, with the remedy; None if fine."""
-        if not math.isfinite(value):
-            what = "parameter" if self.is_parameter else self.causality
-            return (f"{what} {self.name}={value!r} is not finite: give a finite value "
-                    f"in {self.unit or '1'}")
-        if self.min is not None and (value < self.min or
-                                     (self.min_exclusive and value == self.min)):
-            op = ">" if self.min_exclusive else ">="
-            where = "is below its" if value < self.min else "is its exclusive"
-            return f"{self.name}={value!r} {where} minimum {self.min:g}: use {op} {self.min:g}"
-        if self.max is not None and value > self.max:
-            return f"{self.name}={value!r} is above its maximum {self.max:g}: use <= {self.max:g}"
-        return None
 
 
 class GyroSlave(Fmi2Slave):

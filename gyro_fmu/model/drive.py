@@ -2,8 +2,15 @@
 
 from __future__ import annotations
 
-import math
+import ctypes
+import functools
 from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.library import TwoToneDrive as CDrive
+from ..core.library import core as _core
+from ..core.library import message_buffer
 
 
 @dataclass(frozen=True)
@@ -24,20 +31,26 @@ class TwoToneDrive:
     f2: float = 1200.0  #: frequency of tone 2, Hz
 
     def ux(self, t: float) -> float:
-        """x-axis drive force at time t (s), N."""
-        return self.A1 * math.sin(2.0 * math.pi * self.f1 * t) + self.A2 * math.sin(
-            2.0 * math.pi * self.f2 * t
-        )
+        """x-axis drive force at time t (s), N: the C core's gyro_drive_ux, as in
+        TwoToneDrive.fmu."""
+        return _core().gyro_drive_ux(_c_drive(self.A1, self.f1, self.A2, self.f2), t)
+
+    def ux_many(self, t: np.ndarray) -> np.ndarray:
+        """ux at every time of t."""
+        fn, c = _core().gyro_drive_ux, _c_drive(self.A1, self.f1, self.A2, self.f2)
+        return np.array([fn(c, float(tk)) for tk in np.ravel(t)]).reshape(np.shape(t))
 
     def problems(self) -> list[str]:
-        """Settings that make the drive useless (empty when fine)."""
-        out = [
-            f"{name}={value} must be finite"
-            for name, value in vars(self).items()
-            if not math.isfinite(value)
-        ]
-        if out:
-            return out
-        if self.f1 < 0 or self.f2 < 0:
-            out.append(f"tone frequencies f1={self.f1}, f2={self.f2} Hz must be >= 0")
-        return out
+        """Settings that make the drive useless (empty when fine): the core's check, as
+        TwoToneDrive.fmu makes it."""
+        msg = message_buffer()
+        if _core().gyro_drive_problems(_c_drive(self.A1, self.f1, self.A2, self.f2), msg,
+                                       len(msg)):
+            return [msg.value.decode()]
+        return []
+
+
+@functools.lru_cache(maxsize=256)
+def _c_drive(A1: float, f1: float, A2: float, f2: float) -> object:
+    """The core's GyroTwoToneDrive, passed by reference."""
+    return ctypes.byref(CDrive(float(A1), float(f1), float(A2), float(f2)))

@@ -6,12 +6,15 @@ and the tests use the same class, so the FMU adds only the FMI interface.
 
 from __future__ import annotations
 
+import base64
+import ctypes
 import math
+import operator
 from dataclasses import dataclass, fields
 
 import numpy as np
 
-from .dynamics import HeldInputStepper, accelerations
+from ..core.library import Params, PickoffNoise, State, core, message_buffer
 from .parameters import GyroParameters, ParameterError, validate_for_plant
 
 #: Names of the plant's measured outputs, in output order.
@@ -44,10 +47,12 @@ class MeasurementNoise:
 
 
 class GyroPlantModel:
-    """State [x, vx, y, vy] advanced exactly over each step with held ux, uy, Omega_z.
+    """State [x, vx, y, vy] advanced exactly over each step with held ux, uy, Omega_z: the
+    C core's GyroPlant (fmu_src/core/gyro_plant.c), the same code GyroPlant.fmu steps.
 
     Noise is drawn once per communication point, so the measured outputs at a
-    time do not depend on how often they are read.
+    time do not depend on how often they are read. The seed is any integer in
+    [0, 2^64); GyroPlant.fmu takes [0, 2^31 - 1] (an FMI 2.0 Integer).
     """
 
     def __init__(
@@ -59,49 +64,63 @@ class GyroPlantModel:
     ) -> None:
         self.params = validate_for_plant(params)
         self.noise = noise or MeasurementNoise()
-        self._sigma = self.noise.as_array()
-        self._noisy = bool(self._sigma.any())
-        self._rng = np.random.default_rng(seed)
-        self._stepper = HeldInputStepper(self.params)
-        self.s = np.zeros(4) if state0 is None else np.asarray(state0, dtype=float).copy()
-        self.held = (0.0, 0.0, 0.0)  # ux, uy, Omega_z over the last step
-        self._draw_noise()
-
-    def _draw_noise(self) -> None:
-        self._noise = self._rng.standard_normal(4) * self._sigma if self._noisy else None
+        seed = operator.index(seed)
+        if not 0 <= seed < 2**64:
+            raise ParameterError(f"seed={seed} is outside [0, 2^64): give a non-negative "
+                                 "64-bit seed")
+        self._lib = core()
+        self._buf = ctypes.create_string_buffer(self._lib.gyro_plant_size())
+        self._out = (ctypes.c_double * 6)()
+        p = self.params
+        self._c_params = Params(p.kxx, p.kyy, p.kxy, p.dxx, p.dyy, p.dxy, p.m)
+        self._c_noise = PickoffNoise(*self.noise.as_array())
+        s0 = None if state0 is None else State(*(float(v) for v in np.asarray(state0)))
+        self._lib.gyro_plant_init(self._buf, ctypes.byref(self._c_params),
+                                  ctypes.byref(self._c_noise), seed,
+                                  None if s0 is None else ctypes.byref(s0))
 
     def step(self, ux: float, uy: float, Omega_z: float, h: float) -> None:
         """Advance from t to t+h with ux, uy (N) and Omega_z (rad/s) held over the step."""
         if not h > 0.0:
             raise ValueError(f"step size h={h!r} s must be > 0")
-        self.s = self._stepper.step(self.s, ux, uy, Omega_z, h)
-        self.held = (ux, uy, Omega_z)
-        self._draw_noise()
-
-    def measured(self) -> np.ndarray:
-        """[x, vx, y, vy] (m, m/s) at the current time, noise included."""
-        return self.s if self._noise is None else self.s + self._noise
-
-    def accelerations(self) -> tuple[float, float]:
-        """ax, ay (m/s^2) at the current time with the inputs of the last step (left limit)."""
-        ux, uy, Omega_z = self.held
-        return accelerations(self.params, self.s, ux, uy, Omega_z)
+        self._lib.gyro_plant_step(self._buf, ux, uy, Omega_z, h)
 
     def output_row(self) -> list[float]:
         """[x, vx, y, vy] measured (noise included), then ax, ay: the FMU's outputs."""
-        return [*self.measured().tolist(), *self.accelerations()]
+        self._lib.gyro_plant_outputs(self._buf, self._out)
+        return list(self._out)
+
+    def measured(self) -> np.ndarray:
+        """[x, vx, y, vy] (m, m/s) at the current time, noise included."""
+        return np.array(self.output_row()[:4])
+
+    def accelerations(self) -> tuple[float, float]:
+        """ax, ay (m/s^2) at the current time with the inputs of the last step (left limit)."""
+        row = self.output_row()
+        return row[4], row[5]
+
+    @property
+    def s(self) -> np.ndarray:
+        """The true state [x, vx, y, vy] (no noise)."""
+        return np.frombuffer(self._buf.raw, dtype=float, count=4, offset=_STATE_OFFSET).copy()
 
     # --- state for FMI get/set (everything that determines future outputs) ---
     def get_state(self) -> dict:
-        return {
-            "s": self.s.tolist(),
-            "held": list(self.held),
-            "rng": self._rng.bit_generator.state,
-            "noise": None if self._noise is None else self._noise.tolist(),
-        }
+        return {"core": base64.b64encode(self._buf.raw).decode("ascii")}
 
     def set_state(self, state: dict) -> None:
-        self.s = np.array(state["s"], dtype=float)
-        self.held = tuple(state["held"])
-        self._rng.bit_generator.state = state["rng"]
-        self._noise = None if state["noise"] is None else np.array(state["noise"])
+        """Restore get_state's bytes; refused (ValueError naming why, nothing changed)
+        unless they are this plant's: same size, parameters and noise, finite values."""
+        raw = base64.b64decode(state["core"], validate=True)
+        if len(raw) != len(self._buf.raw):
+            raise ValueError(f"plant state of {len(raw)} bytes, {len(self._buf.raw)} expected")
+        candidate = ctypes.create_string_buffer(raw, len(raw))
+        msg = message_buffer()
+        if self._lib.gyro_plant_restored_problem(candidate, ctypes.byref(self._c_params),
+                                                 ctypes.byref(self._c_noise), msg, len(msg)):
+            raise ValueError(msg.value.decode())
+        ctypes.memmove(self._buf, candidate, len(raw))
+
+
+#: Offset of GyroPlant.s in the core's struct: after GyroParams (7) and GyroPickoffNoise (4).
+_STATE_OFFSET = 11 * 8

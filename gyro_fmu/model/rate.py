@@ -2,9 +2,16 @@
 
 from __future__ import annotations
 
-import math
+import ctypes
+import functools
 from dataclasses import dataclass
 from enum import IntEnum
+
+import numpy as np
+
+from ..core.library import RateProfile as CRate
+from ..core.library import core as _core
+from ..core.library import message_buffer
 
 
 class RateKind(IntEnum):
@@ -38,14 +45,23 @@ class RateProfile:
         object.__setattr__(self, "kind", RateKind(self.kind))
 
     def Omega_z(self, t: float) -> float:
-        if self.kind is RateKind.constant or t < self.t_start:
-            return self.offset
-        tau = t - self.t_start
-        if self.kind is RateKind.step:
-            return self.offset + self.amplitude
-        if self.kind is RateKind.ramp:
-            return self.offset + self.slope * tau
-        return self.offset + self.amplitude * math.sin(2.0 * math.pi * self.frequency * tau)
+        """Omega_z at time t (s), rad/s: the C core's gyro_rate_Omega_z, as in
+        RateProfile.fmu."""
+        return _core().gyro_rate_Omega_z(self._c(), t)
+
+    def Omega_z_many(self, t: np.ndarray) -> np.ndarray:
+        fn, c = _core().gyro_rate_Omega_z, self._c()
+        return np.array([fn(c, float(tk)) for tk in np.ravel(t)]).reshape(np.shape(t))
+
+    def problems(self) -> list[str]:
+        """Settings RateProfile.fmu refuses (empty when fine): the core's check."""
+        msg = message_buffer()
+        return [msg.value.decode()] if _core().gyro_rate_problems(self._c(), msg,
+                                                                  len(msg)) else []
+
+    def _c(self) -> object:
+        return _c_rate(int(self.kind), self.offset, self.amplitude, self.frequency,
+                       self.slope, self.t_start)
 
     @classmethod
     def parse(cls, text: str) -> RateProfile:
@@ -85,3 +101,11 @@ class RateProfile:
             RateKind.ramp: f"ramp:{self.slope:g}:{self.t_start:g}:{self.offset:g}",
             RateKind.sine: f"sine:{self.amplitude:g}:{self.frequency:g}:{self.offset:g}",
         }[self.kind]
+
+
+@functools.lru_cache(maxsize=256)
+def _c_rate(kind: int, offset: float, amplitude: float, frequency: float, slope: float,
+            t_start: float) -> object:
+    """The core's GyroRateProfile, passed by reference."""
+    return ctypes.byref(CRate(kind, 0, float(offset), float(amplitude), float(frequency),
+                              float(slope), float(t_start)))

@@ -12,7 +12,11 @@
  * means the crash happened in exit-time teardown, not in the simulation.
  *
  * usage: fmu_host LIBRARY GUID RESOURCE_URI STEP NSTEPS [-s VR=VALUE]... [-o VR]...
- *                 [--no-free] [--no-dlclose]
+ *                 [-f INPUTS] [--no-free] [--no-dlclose]
+ *
+ * -f INPUTS: a text file of one row per communication point, each row the values of the
+ * -s variables in their order (row 0 is set before initialization, row k-1 is held over
+ * step k), as a reference run's input table has them.
  *
  * exit status: 0 ok, 1 usage, 2 dlopen failed, 3 symbol missing,
  *              4 fmi2Instantiate returned NULL, 5 an FMI call returned
@@ -129,6 +133,9 @@ int main(int argc, char **argv)
     fmi2Real in_val[MAX_VARS], out_val[MAX_VARS];
     size_t n_in = 0, n_out = 0;
     int do_free = 1, do_close = 1, i;
+    double *rows = NULL;
+    long n_rows = 0;
+    const char *input_file = NULL;
     double h, t = 0.0;
     long n_steps, k;
 
@@ -149,6 +156,8 @@ int main(int argc, char **argv)
             in_val[n_in++] = strtod(eq + 1, NULL);
         } else if (!strcmp(argv[i], "-o") && i + 1 < argc && n_out < MAX_VARS) {
             out_vr[n_out++] = (fmi2ValueReference)strtoul(argv[++i], NULL, 10);
+        } else if (!strcmp(argv[i], "-f") && i + 1 < argc) {
+            input_file = argv[++i];
         } else if (!strcmp(argv[i], "--no-free")) {
             do_free = 0;
         } else if (!strcmp(argv[i], "--no-dlclose")) {
@@ -157,6 +166,24 @@ int main(int argc, char **argv)
             fprintf(stderr, "fmu_host: bad argument %s\n", argv[i]);
             return 1;
         }
+    }
+
+    if (input_file) {
+        FILE *fin = fopen(input_file, "r");
+        double v;
+        long n_values = 0, cap = 1024;
+        if (!fin || !n_in || !(rows = malloc(cap * sizeof *rows))) return 1;
+        while (fscanf(fin, "%lf", &v) == 1) {
+            if (n_values == cap && !(rows = realloc(rows, (cap *= 2) * sizeof *rows))) return 1;
+            rows[n_values++] = v;
+        }
+        fclose(fin);
+        n_rows = n_values / (long)n_in;
+        if (n_rows < n_steps + 1) {
+            fprintf(stderr, "fmu_host: %ld input rows for %ld steps\n", n_rows, n_steps);
+            return 1;
+        }
+        for (size_t j = 0; j < n_in; j++) in_val[j] = rows[j];
     }
 
     LIB_HANDLE lib = LIB_OPEN(argv[1]);
@@ -193,6 +220,8 @@ int main(int argc, char **argv)
 
     for (k = 1; k <= n_steps; k++) {
         fmi2Status s;
+        if (rows)
+            for (size_t j = 0; j < n_in; j++) in_val[j] = rows[(k - 1) * (long)n_in + (long)j];
         if (n_in && (s = set_real(c, in_vr, n_in, in_val)) > fmi2Warning) {
             ok("fmi2SetReal", s);
             return 5;
@@ -220,6 +249,7 @@ int main(int argc, char **argv)
         LIB_CLOSE(lib);
         printf("host: closed library\n");
     }
+    free(rows);
     printf("host: returning from main\n");
     return 0;
 }

@@ -1,0 +1,36 @@
+/* The signal sources of the gyroscope's co-simulation: the two-tone single-axis drive
+ * of US 2011/0314910 A1 eq. 10 and the angular-rate profiles Omega_z(t). */
+#ifndef GYRO_SIGNALS_H
+#define GYRO_SIGNALS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* ux = A1 sin(2 pi f1 t) + A2 sin(2 pi f2 t), uy = 0 (eq. 10): two distinct tones make
+ * W_kd of eq. 7 full rank, so the 8 unknowns can be separated. */
+typedef struct {
+    double A1, f1, A2, f2;  /* N, Hz, N, Hz */
+} GyroTwoToneDrive;
+
+double gyro_drive_ux(const GyroTwoToneDrive *d, double t);
+/* Why the drive is unusable ("" when fine); returns 0 when usable. */
+int gyro_drive_problems(const GyroTwoToneDrive *d, char *msg, size_t n);
+
+/* Shape of a rate profile: the Integer `kind` of RateProfile.fmu. */
+typedef enum {
+    GYRO_RATE_CONSTANT = 1, /* offset */
+    GYRO_RATE_STEP = 2,     /* offset, plus amplitude from t_start on */
+    GYRO_RATE_RAMP = 3,     /* offset, plus slope (t - t_start) from t_start on */
+    GYRO_RATE_SINE = 4      /* offset + amplitude sin(2 pi frequency (t - t_start)) from t_start */
+} GyroRateKind;
+
+typedef struct {
+    int32_t kind;  /* GyroRateKind */
+    int32_t reserved;
+    double offset, amplitude, frequency, slope, t_start;  /* rad/s, rad/s, Hz, rad/s^2, s */
+} GyroRateProfile;
+
+double gyro_rate_Omega_z(const GyroRateProfile *r, double t);
+int gyro_rate_problems(const GyroRateProfile *r, char *msg, size_t n);
+
+#endif

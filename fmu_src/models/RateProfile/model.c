@@ -1,0 +1,49 @@
+/* RateProfile.fmu: the angular rate Omega_z(t) applied to the gyroscope
+ * (core/gyro_signals.h: constant, step, ramp or sine). */
+#include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "gyro_signals.h"
+#include "model.h"
+#include "variables.h"
+
+typedef struct {
+    Variables v;
+    GyroRateProfile rate;
+} ModelData;
+
+static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) {
+    ModelData *d = data;
+    const Variables *v = &d->v;
+    d->rate = (GyroRateProfile){v->kind, 0, v->offset, v->amplitude, v->frequency, v->slope,
+                                v->t_start};
+    if (gyro_rate_problems(&d->rate, msg, n)) return GYRO_HOOK_ERROR;
+    d->v.Omega_z = gyro_rate_Omega_z(&d->rate, start_time);
+    return GYRO_HOOK_OK;
+}
+
+static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) {
+    (void)msg, (void)n;
+    ModelData *d = data;
+    d->v.Omega_z = gyro_rate_Omega_z(&d->rate, t + h);
+    return GYRO_HOOK_OK;
+}
+
+static GyroHookStatus restored(void *data, char *msg, size_t n) {
+    ModelData *d = data;
+    const Variables *v = &d->v;
+    const GyroRateProfile want = {v->kind, 0, v->offset, v->amplitude, v->frequency, v->slope,
+                                  v->t_start};
+    if (memcmp(&want, &d->rate, sizeof want) != 0 || !isfinite(d->v.Omega_z)) {
+        snprintf(msg, n, "the saved rate profile does not match its parameters");
+        return GYRO_HOOK_ERROR;
+    }
+    return GYRO_HOOK_OK;
+}
+
+typedef char variables_first[offsetof(ModelData, v) == 0 ? 1 : -1];
+
+const GyroModel GYRO_MODEL = {MODEL_IDENTIFIER, MODEL_TOKEN, VARIABLES, N_VARIABLES,
+                              sizeof(ModelData), setup, step, restored};

@@ -1,0 +1,46 @@
+/* TwoToneDrive.fmu: ux = A1 sin(2 pi f1 t) + A2 sin(2 pi f2 t), uy = 0 (US 2011/0314910 A1
+ * eq. 10, core/gyro_signals.h). The outputs at the end of each step are those of t + h. */
+#include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "gyro_signals.h"
+#include "model.h"
+#include "variables.h"
+
+typedef struct {
+    Variables v;
+    GyroTwoToneDrive drive;
+} ModelData;
+
+static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) {
+    ModelData *d = data;
+    d->drive = (GyroTwoToneDrive){d->v.A1, d->v.f1, d->v.A2, d->v.f2};
+    if (gyro_drive_problems(&d->drive, msg, n)) return GYRO_HOOK_ERROR;
+    d->v.ux = gyro_drive_ux(&d->drive, start_time);
+    d->v.uy = 0.0;
+    return GYRO_HOOK_OK;
+}
+
+static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) {
+    (void)msg, (void)n;
+    ModelData *d = data;
+    d->v.ux = gyro_drive_ux(&d->drive, t + h);
+    return GYRO_HOOK_OK;
+}
+
+static GyroHookStatus restored(void *data, char *msg, size_t n) {
+    ModelData *d = data;
+    const GyroTwoToneDrive want = {d->v.A1, d->v.f1, d->v.A2, d->v.f2};
+    if (memcmp(&want, &d->drive, sizeof want) != 0 || !isfinite(d->v.ux)) {
+        snprintf(msg, n, "the saved drive does not match its parameters A1, f1, A2, f2");
+        return GYRO_HOOK_ERROR;
+    }
+    return GYRO_HOOK_OK;
+}
+
+typedef char variables_first[offsetof(ModelData, v) == 0 ? 1 : -1];
+
+const GyroModel GYRO_MODEL = {MODEL_IDENTIFIER, MODEL_TOKEN, VARIABLES, N_VARIABLES,
+                              sizeof(ModelData), setup, step, restored};

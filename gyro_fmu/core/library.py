@@ -1,0 +1,110 @@
+"""Load the C core (fmu_src/core/*.c) compiled for this platform, through ctypes.
+
+The build (`gyro_fmu.fmu.native`, run by `pip install`) compiles the core for every
+platform into gyro_fmu/core/lib/<platform>/; this module picks the one of the running
+Python. The C structs appear here as ctypes Structures with the same field names.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+import platform
+import sys
+from ctypes import POINTER, c_char_p, c_double, c_int, c_int32, c_size_t, c_uint64
+from pathlib import Path
+
+from ..errors import GyroFmuError
+
+LIB_DIR = Path(__file__).resolve().parent / "lib"
+#: Platform folder (FMI 3.0 platform tuple) -> file name of the core library.
+LIBRARY_FILES = {
+    "x86_64-linux": "libgyro_core.so",
+    "aarch64-linux": "libgyro_core.so",
+    "x86_64-windows": "gyro_core.dll",
+    "x86_64-darwin": "libgyro_core.dylib",
+    "aarch64-darwin": "libgyro_core.dylib",
+}
+
+
+class CoreUnavailableError(GyroFmuError, ImportError):
+    """The compiled core is missing for this platform."""
+
+
+def platform_tuple() -> str:
+    """FMI 3.0 platform tuple of the running Python, e.g. 'x86_64-linux'."""
+    machine = platform.machine().lower()
+    arch = {"amd64": "x86_64", "x86_64": "x86_64", "arm64": "aarch64",
+            "aarch64": "aarch64"}.get(machine, machine)
+    system = {"win32": "windows", "darwin": "darwin"}.get(sys.platform,
+                                                          sys.platform.rstrip("0123456789"))
+    return f"{arch}-{system}"
+
+
+class Params(ctypes.Structure):
+    _fields_ = [(n, c_double) for n in ("kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m")]
+
+
+class PickoffNoise(ctypes.Structure):
+    _fields_ = [(n, c_double) for n in ("x", "vx", "y", "vy")]
+
+
+class State(ctypes.Structure):
+    _fields_ = [(n, c_double) for n in ("x", "vx", "y", "vy")]
+
+
+class TwoToneDrive(ctypes.Structure):
+    _fields_ = [(n, c_double) for n in ("A1", "f1", "A2", "f2")]
+
+
+class RateProfile(ctypes.Structure):
+    _fields_ = [("kind", c_int32), ("reserved", c_int32),
+                *((n, c_double) for n in ("offset", "amplitude", "frequency", "slope",
+                                          "t_start"))]
+
+
+_D = POINTER(c_double)
+#: name -> (restype, argtypes) of every core function the library calls.
+CORE_FUNCTIONS = {
+    "gyro_system_matrix": (None, [POINTER(Params), c_double, _D]),
+    "gyro_held_input_maps": (None, [POINTER(Params), c_double, c_double, _D, _D]),
+    "gyro_params_problems": (c_int, [POINTER(Params), c_char_p, c_size_t]),
+    "gyro_params_warning": (c_int, [POINTER(Params), c_char_p, c_size_t]),
+    "gyro_max_growth_rate": (c_double, [POINTER(Params), c_double]),
+    "gyro_plant_size": (c_size_t, []),
+    "gyro_plant_init": (None, [ctypes.c_void_p, POINTER(Params), POINTER(PickoffNoise),
+                               c_uint64, POINTER(State)]),
+    "gyro_plant_step": (None, [ctypes.c_void_p, c_double, c_double, c_double, c_double]),
+    "gyro_plant_outputs": (None, [ctypes.c_void_p, _D]),
+    "gyro_plant_restored_problem": (c_int, [ctypes.c_void_p, POINTER(Params),
+                                            POINTER(PickoffNoise), c_char_p, c_size_t]),
+    "gyro_drive_ux": (c_double, [POINTER(TwoToneDrive), c_double]),
+    "gyro_drive_problems": (c_int, [POINTER(TwoToneDrive), c_char_p, c_size_t]),
+    "gyro_rate_Omega_z": (c_double, [POINTER(RateProfile), c_double]),
+    "gyro_rate_problems": (c_int, [POINTER(RateProfile), c_char_p, c_size_t]),
+}
+
+
+def library_path(tuple_: str | None = None) -> Path:
+    tuple_ = tuple_ or platform_tuple()
+    return LIB_DIR / tuple_ / LIBRARY_FILES.get(tuple_, "libgyro_core.so")
+
+
+@functools.cache
+def core() -> ctypes.CDLL:
+    """The core library of this platform, its functions typed (loaded once)."""
+    path = library_path()
+    if not path.is_file():
+        raise CoreUnavailableError(
+            f"the compiled gyro_fmu core is missing for {platform_tuple()} ({path}): "
+            "reinstall gyro_fmu (pip install gyro_fmu, or pip install -e . in a checkout: "
+            "the build compiles it with ziglang), or run `python build_fmu.py --native`")
+    lib = ctypes.CDLL(str(path))
+    for name, (restype, argtypes) in CORE_FUNCTIONS.items():
+        fn = getattr(lib, name)
+        fn.restype, fn.argtypes = restype, argtypes
+    return lib
+
+
+def message_buffer() -> ctypes.Array:
+    return ctypes.create_string_buffer(4096)
