@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import importlib
 
-__version__ = "0.2.0"
+__version__ = "0.3.0"
 
 # Many FMUs in one process, each shipping this package: fmu/shipped_copies.py
 importlib.import_module("gyro_fmu.fmu.shipped_copies").install()

@@ -108,3 +108,23 @@ def test_the_ecos_cli_runs_the_package_with_an_empty_environment(models_dir, tmp
         ref = ours[name.replace("::", ".")][:n]
         assert np.max(np.abs(np.array(column[name]) - ref)) < 2e-6, name
     assert np.ptp(column["observer::Omega_hat"]) > 0.1  # it moved
+
+
+def test_the_ecos_cli_runs_a_native_fmu_from_an_empty_folder(tmp_path):
+    """A native FMU copied into an empty folder: the `ecos` CLI runs it with an empty
+    environment but for the TBB path the CLI itself needs (nothing for the FMU)."""
+    import shutil
+
+    from gyro_fmu.fmu.build import prebuilt_fmu
+
+    shutil.copy(prebuilt_fmu("RateProfile"), tmp_path)
+    env = {"LD_LIBRARY_PATH": str(tbb_folder())}
+    proc = subprocess.run(
+        [str(ecos_binary()), "simulate", "--path", "RateProfile.fmu", "--stepSize", "5e-6",
+         "--stopTime", "0.001", "--noParallel"],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    rows = list(csv.reader((tmp_path / "RateProfile.csv").open()))
+    header = [c.strip() for c in rows[0]]
+    omega = [float(r[header.index("instance::Omega_z[REAL]")]) for r in rows[1:]]
+    assert len(omega) >= 200 and set(omega) == {1.0}  # the default: constant 1 rad/s

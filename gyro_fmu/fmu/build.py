@@ -33,6 +33,8 @@ from typing import Any
 
 from pythonfmu.builder import FmuBuilder
 
+from ..errors import GyroFmuError
+
 PACKAGE_DIR = Path(__file__).resolve().parents[1]
 #: Default folder of the built FMUs: relative, so it is models/ under the working
 #: directory at the time of use.
@@ -128,8 +130,12 @@ def prebuilt_fmu(name: str, fmi_version: int = 2) -> Path:
     if problem is None and not path.is_file():
         problem = f"{path} is missing: reinstall gyro_fmu"
     if problem:
-        raise FileNotFoundError(problem)
+        raise PrebuiltFmuError(problem)
     return path
+
+
+class PrebuiltFmuError(GyroFmuError, FileNotFoundError):
+    """The package's native FMUs are missing or older than their sources."""
 
 
 def copy_fmu(source: Path, dest: Path) -> Path:

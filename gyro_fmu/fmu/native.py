@@ -398,15 +398,17 @@ STAMP = "sources.sha256"
 
 def sources_digest() -> str:
     """Hash of everything the binaries and FMUs are made from: the C sources, the
-    declarations and this builder."""
+    declarations and this builder, each by its name relative to its folder (the same in a
+    checkout and in an installation)."""
     root = sources_root()
+    files = {f.relative_to(root).as_posix(): f
+             for f in [*root.glob("core/*"), *root.glob("fmi/*"), *root.glob("models/*/*")]
+             if f.is_file()}
+    for name in ("model/interfaces.py", "fmu/native.py", "fmu/units.py"):
+        files[name] = PACKAGE_DIR / name
     h = hashlib.sha256()
-    files = sorted([*root.glob("core/*"), *root.glob("fmi/*"), *root.glob("models/*/*"),
-                    PACKAGE_DIR / "model" / "interfaces.py", Path(__file__),
-                    PACKAGE_DIR / "fmu" / "units.py"])
-    for f in files:
-        if f.is_file():
-            h.update(f.name.encode() + f.read_bytes())
+    for name in sorted(files):
+        h.update(name.encode() + b"\0" + files[name].read_bytes())
     return h.hexdigest()
 
 
