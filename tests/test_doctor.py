@@ -195,3 +195,16 @@ def test_every_fmu_ships_every_kernel(models_dir: Path) -> None:
     assert any("loops" in n for n in first)
     for name, names in caches.items():
         assert names == first, (name, sorted(first ^ names)[:5])
+
+
+@needs_c_host
+def test_a_native_fmu_needs_nothing_and_the_doctor_proves_it() -> None:
+    """The doctor gives no Python settings for a native FMU and shows the C host
+    simulating it with an empty environment."""
+    from gyro_fmu.fmu.build import prebuilt_fmu
+
+    report = doc.doctor(prebuilt_fmu("GyroPlant"))
+    text = report.format()
+    assert report.native and report.ok, text
+    assert "This is a native C FMU" in text and "export" not in text
+    assert [r.label for r in report.runs] == ["without"] and report.check.reached_end

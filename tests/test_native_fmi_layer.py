@@ -38,8 +38,8 @@ def test_refused_calls_return_an_error_with_a_reason_and_change_nothing(version:
         assert "not allowed in instantiated" in _errors(run)[-1]
         with pytest.raises(FMICallException):
             run.set(kxx=-1.0)
-        assert "kxx=-1.0 is its exclusive minimum" not in _errors(run)[-1]
-        assert "kxx=-1 is below its minimum 0: use > 0 (kept 355305555" in _errors(run)[-1]
+        assert "kxx=-1.0 is below its minimum 0: use > 0 (kept 355305555.5555555)" in \
+            _errors(run)[-1]
         with pytest.raises(FMICallException):
             run.set(seed=-5)
         run.initialize(ux=1e-7, Omega_z=1.0)

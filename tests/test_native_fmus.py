@@ -279,3 +279,15 @@ def test_the_pythonfmu_flavour_equals_the_native_fmu(pythonfmu_models, name: str
         rows.append(run.run(steps, outputs[name], inputs))
         run.close()
     assert np.array_equal(rows[0], rows[1])
+
+
+def test_a_seed_outside_the_fmu_integer_is_refused_not_wrapped() -> None:
+    """0.2.0 took --seed 4294967296 and ran the noise of seed 0 (32-bit wrap) while the
+    summary recorded 4294967296: the scenario refuses what GyroPlant.fmu cannot hold."""
+    from gyro_fmu.model.parameters import ParameterError
+    from gyro_fmu.system.scenario import scenario
+
+    for seed in (2**32, 2**31, -1, 1.5, True):
+        with pytest.raises(ParameterError, match=r"not an integer in \[0, 2147483647\]"):
+            scenario(seed=seed)
+    assert scenario(seed=2**31 - 1).seed == 2**31 - 1

@@ -1,5 +1,7 @@
 #include "gyro_plant.h"
 
+#include "gyro_text.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -122,8 +124,9 @@ int gyro_params_problems(const GyroParams *p, char *msg, size_t n) {
         }
     if (msg[0]) return 1;
     if (p->m <= 0.0) {
-        snprintf(text, sizeof text, "mass m=%.17g kg must be > 0: give the proof mass in kg",
-                 p->m);
+        char m[GYRO_REAL_TEXT];
+        snprintf(text, sizeof text, "mass m=%s kg must be > 0: give the proof mass in kg",
+                 gyro_real_text(p->m, m));
         add(msg, n, text);
     }
     for (int i = 0; i < 6; i++) {

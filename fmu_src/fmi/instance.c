@@ -1,5 +1,7 @@
 #include "instance.h"
 
+#include "gyro_text.h"
+
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -101,15 +103,8 @@ void inst_logf(Instance *inst, Status status, const char *fmt, ...) {
     inst->log(inst, status, category_of(status), msg);
 }
 
-/* Shortest text that reads back as the same double (Python's repr). */
-static const char *real_text(double v, char buf[40]) {
-    if (isnan(v)) return "nan";
-    if (isinf(v)) return v > 0 ? "inf" : "-inf";
-    for (int digits = 1; digits <= 17; digits++) {
-        snprintf(buf, 40, "%.*g", digits, v);
-        if (strtod(buf, NULL) == v) break;
-    }
-    return buf;
+static const char *real_text(double v, char buf[GYRO_REAL_TEXT]) {
+    return gyro_real_text(v, buf);
 }
 
 static const char *mode_name(Mode mode) {
@@ -307,18 +302,26 @@ Status inst_do_step(Instance *inst, double t, double h) {
         return fail(inst, why);
     }
     /* every Real output finite, or the instance fails naming the outputs and inputs */
-    char bad[GYRO_MESSAGE_SIZE] = "", held[GYRO_MESSAGE_SIZE] = "", num[40];
-    for (size_t i = 0; i < m->n_variables; i++) {
+    int all_finite = 1;
+    for (size_t i = 0; i < m->n_variables && all_finite; i++) {
         const GyroVariable *v = &m->variables[i];
-        if (v->type != GYRO_FLOAT64) continue;
-        const double value = *(double *)(inst->data + v->offset);
-        char *list = v->causality == GYRO_OUTPUT ? bad : v->causality == GYRO_INPUT ? held : NULL;
-        if (!list || (list == bad && isfinite(value))) continue;
-        size_t used = strlen(list);
-        snprintf(list + used, GYRO_MESSAGE_SIZE - used, "%s%s=%s", used ? ", " : "", v->name,
-                 real_text(value, num));
+        if (v->causality == GYRO_OUTPUT && v->type == GYRO_FLOAT64)
+            all_finite = isfinite(*(double *)(inst->data + v->offset));
     }
-    if (bad[0]) {
+    if (!all_finite) {
+        char bad[GYRO_MESSAGE_SIZE] = "", held[GYRO_MESSAGE_SIZE] = "", num[40];
+        for (size_t i = 0; i < m->n_variables; i++) {
+            const GyroVariable *v = &m->variables[i];
+            if (v->type != GYRO_FLOAT64) continue;
+            const double value = *(double *)(inst->data + v->offset);
+            char *list = v->causality == GYRO_OUTPUT  ? bad
+                         : v->causality == GYRO_INPUT ? held
+                                                      : NULL;
+            if (!list || (list == bad && isfinite(value))) continue;
+            size_t used = strlen(list);
+            snprintf(list + used, GYRO_MESSAGE_SIZE - used, "%s%s=%s", used ? ", " : "",
+                     v->name, real_text(value, num));
+        }
         snprintf(why, sizeof why,
                  "the step from t=%.9g s over %g s gave non-finite outputs (%s) with %s held "
                  "over the step: the inputs or parameters are out of this model's numeric "

@@ -55,6 +55,8 @@ class DoctorReport:
     notes: list[str] = field(default_factory=list)
     #: What the FMU's own loader will use (resources/python_env.txt), None without one.
     loader: dict[str, list[str]] | None = None
+    #: A native C FMU (no Python inside): it needs no settings, and the check proves it.
+    native: bool = False
 
     def environment(self) -> dict[str, str]:
         """The variables a non-Python importer's process needs (POSIX form)."""
@@ -74,19 +76,23 @@ class DoctorReport:
     def check(self) -> HostRun | None:
         """The run that must work, if the check ran: with no settings at all for an FMU
         with our loader, with the prescribed environment for one without."""
-        label = "without" if self.loader is not None else "prescribed"
+        label = "without" if (self.loader is not None or self.native) else "prescribed"
         return next((r for r in self.runs if r.label == label), None)
 
     @property
     def ok(self) -> bool:
         """Settings found, glibc new enough and, if the check ran, the C host simulated."""
         check = self.check
+        if self.native:
+            return self.glibc_ok is not False and (check is None or check.reached_end)
         return (self.libpython.path is not None and not self.missing_modules
                 and self.glibc_ok is not False
                 and (check is None or check.reached_end))
 
     def format(self) -> str:
         """Human-readable report: settings first, then the evidence."""
+        if self.native:
+            return self._format_native()
         out: list[str] = [f"gyro-fmu doctor: {self.python}", ""]
         lib = self.libpython
         out.append("1. libpython to preload")
@@ -144,6 +150,25 @@ class DoctorReport:
         out.append("RESULT: " + result)
         return "\n".join(out)
 
+    def _format_native(self) -> str:
+        """A native FMU: no settings to give; the evidence is the C host with nothing."""
+        out = [f"gyro-fmu doctor: {self.fmu}", "",
+               "This is a native C FMU (no Python inside): any host loads it as it is, on",
+               "Linux x86_64/aarch64 (glibc 2.17 or newer), Windows x86_64 and macOS. It needs",
+               "no LD_PRELOAD, PYTHONHOME, PYTHONPATH or PATH setting.", ""]
+        have = "not glibc" if self.glibc is None else "{}.{}".format(*self.glibc)
+        need = "?" if self.glibc_needed is None else "{}.{}".format(*self.glibc_needed)
+        out.append(f"glibc: this machine {have}, FMU binary needs >= {need}")
+        out.append("Check with a compiled C FMI 2.0 co-simulation host, empty environment")
+        for run in self.runs:
+            out.append(f"   [{run.label}] {run.verdict()}")
+            if run.outputs:
+                last = ", ".join(f"{n}={v[-1]:.9g}" for n, v in run.outputs.items())
+                out.append(f"      at t={run.times[-1]:.6g} s: {last}")
+        out.extend("   note: " + n for n in self.notes)
+        out += ["", "OK" if self.ok else "PROBLEMS (see above)"]
+        return "\n".join(out)
+
     def _windows_lines(self) -> list[str]:
         if sys.platform == "win32":
             folder = self.libpython.path.parent if self.libpython.path else Path(sys.base_prefix)
@@ -192,6 +217,7 @@ def doctor(fmu: Path | None = None, compile_host: bool = True) -> DoctorReport:
         report.fmu = fmu_path
         report.loader = recorded_python(fmu_path)
         info = unpack_fmu(fmu_path, work / "fmu")
+        report.native = not (work / "fmu" / "resources" / "gyro_fmu").is_dir()
         real = info.binary.with_name(f"{info.binary.stem}_pythonfmu.so")  # behind our loader
         if info.binary.exists():
             needed = glibc_required((real if real.exists() else info.binary).read_bytes())
@@ -221,6 +247,9 @@ def _check(report: DoctorReport, info: FmuInfo, work: Path) -> None:
     report.compile_log = log
     if exe is None:
         report.notes.append(f"compiling the C host failed:\n{log}")
+        return
+    if report.native:  # nothing to prescribe: the run with nothing must work
+        report.runs.append(run_host(exe, info, {}, "without"))
         return
     env = report.environment()
     report.runs.append(run_host(exe, info, env, "prescribed"))

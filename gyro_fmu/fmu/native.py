@@ -70,7 +70,9 @@ TARGETS = (
 FLAGS = ["-std=c99", "-O2", "-g0", "-s", "-ffp-contract=off", "-fno-fast-math", "-Wall", "-Wextra"]
 FMI_LAYER = ("instance.c", "fmi2.c", "fmi3.c")
 FMI_HEADERS = ("fmi2_api.h", "fmi3_api.h", "model.h", "instance.h")
-CORE_SOURCES = ("gyro_rng.c", "gyro_plant.c", "gyro_signals.c")
+CORE_SOURCES = ("gyro_text.c", "gyro_rng.c", "gyro_plant.c", "gyro_signals.c")
+#: Core sources every model's binary needs (the FMI layer's messages).
+COMMON_CORE = ("gyro_text.c",)
 GENERATION_TOOL = "gyro_fmu (native C, zig cc)"
 DEFAULT_EXPERIMENT = {"startTime": "0", "stopTime": "0.01", "stepSize": "5e-06"}
 
@@ -225,8 +227,8 @@ def model_sources(interface: FmuInterface) -> list[Path]:
     core = root / "core"
     return [root / "models" / interface.identifier / "model.c",
             *(root / "fmi" / n for n in (*FMI_LAYER, *FMI_HEADERS)),
-            *(core / n for n in interface.core_sources),
-            *(core / n.replace(".c", ".h") for n in interface.core_sources)]
+            *(core / n for n in (*COMMON_CORE, *interface.core_sources)),
+            *(core / n.replace(".c", ".h") for n in (*COMMON_CORE, *interface.core_sources))]
 
 
 # ---- compiling --------------------------------------------------------------------------

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import ctypes
-import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,27 +28,25 @@ class TwoToneDrive:
     A2: float = 1.0e-7  #: amplitude of tone 2, N
     f2: float = 1200.0  #: frequency of tone 2, Hz
 
+    def __post_init__(self) -> None:
+        # the core's GyroTwoToneDrive of these values (not a field: eq, repr, replace skip it)
+        object.__setattr__(self, "_c", CDrive(float(self.A1), float(self.f1),
+                                              float(self.A2), float(self.f2)))
+
     def ux(self, t: float) -> float:
         """x-axis drive force at time t (s), N: the C core's gyro_drive_ux, as in
         TwoToneDrive.fmu."""
-        return _core().gyro_drive_ux(_c_drive(self.A1, self.f1, self.A2, self.f2), t)
+        return _core().gyro_drive_ux(self._c, t)
 
     def ux_many(self, t: np.ndarray) -> np.ndarray:
         """ux at every time of t."""
-        fn, c = _core().gyro_drive_ux, _c_drive(self.A1, self.f1, self.A2, self.f2)
+        fn, c = _core().gyro_drive_ux, self._c
         return np.array([fn(c, float(tk)) for tk in np.ravel(t)]).reshape(np.shape(t))
 
     def problems(self) -> list[str]:
         """Settings that make the drive useless (empty when fine): the core's check, as
         TwoToneDrive.fmu makes it."""
         msg = message_buffer()
-        if _core().gyro_drive_problems(_c_drive(self.A1, self.f1, self.A2, self.f2), msg,
-                                       len(msg)):
+        if _core().gyro_drive_problems(self._c, msg, len(msg)):
             return [msg.value.decode()]
         return []
-
-
-@functools.lru_cache(maxsize=256)
-def _c_drive(A1: float, f1: float, A2: float, f2: float) -> object:
-    """The core's GyroTwoToneDrive, passed by reference."""
-    return ctypes.byref(CDrive(float(A1), float(f1), float(A2), float(f2)))

@@ -7,6 +7,7 @@ dxx, dyy, dxy in 1/s; m (kg) remains only as the input gain 1/m.
 
 from __future__ import annotations
 
+import ctypes
 import math
 import warnings
 from dataclasses import asdict, dataclass, fields, replace
@@ -48,9 +49,6 @@ PARAMETER_BOUNDS: dict[str, dict[str, float | bool]] = {
     "dxy": {"max": D_MAX, "nominal": 1.0},
     "m": {"min": 0.0, "min_exclusive": True, "nominal": 1e-7},
 }
-
-_AXES = {"kxx": "x-axis stiffness", "kyy": "y-axis stiffness", "kxy": "cross-axis stiffness",
-         "dxx": "x-axis damping", "dyy": "y-axis damping", "dxy": "cross-axis damping"}
 
 DEFAULT_PRESET = "park-horowitz"
 
@@ -179,77 +177,46 @@ def system_matrix(p: GyroParameters, Omega_z: float = 0.0) -> np.ndarray:
                             float(p.dyy), float(p.dxy), float(Omega_z))
 
 
+def _c_params(p: GyroParameters) -> object:
+    from ..core.library import Params
+
+    return ctypes.byref(Params(*(float(getattr(p, n)) for n in PARAMETER_NAMES)))
+
+
 def max_growth_rate(p: GyroParameters, Omega_z: float = 0.0) -> float:
-    """Largest real part of the eigenvalues of A (1/s); > 0 means a growing mode."""
-    return float(np.max(np.linalg.eigvals(system_matrix(p, Omega_z)).real))
+    """Largest real part of the eigenvalues of A (1/s); > 0 means a growing mode (the C
+    core's gyro_max_growth_rate, which GyroPlant.fmu uses)."""
+    from ..core.library import core
+
+    return float(core().gyro_max_growth_rate(_c_params(p), float(Omega_z)))
 
 
 def check_parameters(p: GyroParameters) -> list[str]:
     """Problems that make a parameter set unusable for a plant (empty when usable).
 
-    A pure function in the manner of fmpy.validation: it lists, it does not raise.
+    A pure function in the manner of fmpy.validation: it lists, it does not raise. The
+    checks and their words are the C core's (gyro_params_problems), the ones GyroPlant.fmu
+    refuses with at initialization.
     """
-    problems: list[str] = []
-    for name in PARAMETER_NAMES:
-        value = getattr(p, name)
-        if not math.isfinite(value):
-            problems.append(f"{name}={value} is not finite")
-    if problems:
-        return problems
-    if p.m <= 0.0:
-        problems.append(f"mass m={p.m} kg must be > 0: give the proof mass in kg")
-    for name, what in _AXES.items():
-        value, unit = getattr(p, name), PARAMETER_UNITS[name]
-        limit = K_MAX if name.startswith("k") else D_MAX
-        if abs(value) > limit:
-            problems.append(
-                f"{what} {name}={value:g} {unit} is beyond |{name}| <= {limit:g} {unit}, the "
-                "range the model integrates accurately in double precision: give it divided "
-                f"by the mass (a MEMS gyroscope has {name} near "
-                f"{PARAMETER_BOUNDS[name]['nominal']:g})")
-        elif name in ("kxx", "kyy") and value <= 0.0:
-            problems.append(f"{what} {name}={value:g} {unit} must be > 0 (a main-axis spring "
-                            "is neither negative nor absent): give the stiffness divided by "
-                            "the mass, e.g. from preset " + repr(DEFAULT_PRESET))
-        elif name in ("dxx", "dyy") and value < 0.0:
-            problems.append(f"{what} {name}={value:g} {unit} must be >= 0 (a main-axis "
-                            "damping cannot feed energy in): give the damping divided by "
-                            "the mass")
-    if problems:
-        return problems
-    eig_K = np.linalg.eigvalsh(p.K)
-    if eig_K.min() <= 0.0:
-        problems.append(
-            "stiffness matrix K=[[kxx, kxy], [kxy, kyy]] is not positive definite: "
-            f"eigenvalues {eig_K[0]:.4g} and {eig_K[1]:.4g} 1/s^2 "
-            f"(needs |kxy| < sqrt(kxx*kyy) = {math.sqrt(max(p.kxx * p.kyy, 0.0)):.4g}); "
-            f"the plant would diverge. Use preset {DEFAULT_PRESET!r} or "
-            "'patent-table1-corrected', or override kxy"
-        )
-    return problems
+    from ..core.library import core, message_buffer
+
+    msg = message_buffer()
+    return [msg.value.decode()] if core().gyro_params_problems(_c_params(p), msg,
+                                                               len(msg)) else []
 
 
 def validate_for_plant(p: GyroParameters) -> GyroParameters:
-    """Raise ParameterError if unusable; warn with the growth rate if a mode grows."""
+    """Raise ParameterError if unusable; warn with the growth rate if a mode grows (the
+    core's gyro_params_warning, GyroPlant.fmu's warning at initialization)."""
+    from ..core.library import core, message_buffer
+
     problems = check_parameters(p)
     if problems:
         raise ParameterError("; ".join(problems))
-    eig_D = np.linalg.eigvalsh(p.D)
-    growth = max_growth_rate(p)
-    if growth > 0.0:
-        warnings.warn(
-            "damping matrix D=[[dxx, dxy], [dxy, dyy]] is indefinite "
-            f"(eigenvalues {eig_D[0]:.4g} and {eig_D[1]:.4g} 1/s): one mode grows at "
-            f"{growth:.3g} 1/s (amplitude x{_gain(growth * 0.1)} per 100 ms)",
-            UnstablePlantWarning,
-            stacklevel=2,
-        )
+    msg = message_buffer()
+    if core().gyro_params_warning(_c_params(p), msg, len(msg)):
+        warnings.warn(msg.value.decode(), UnstablePlantWarning, stacklevel=2)
     return p
-
-
-def _gain(exponent: float) -> str:
-    """exp(exponent) as text, also where it overflows a double."""
-    return f"{math.exp(exponent):.3f}" if exponent < 700.0 else f"e^{exponent:.3g}"
 
 
 def parameter_field_names() -> list[str]:

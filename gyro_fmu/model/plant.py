@@ -70,7 +70,9 @@ class GyroPlantModel:
                                  "64-bit seed")
         self._lib = core()
         self._buf = ctypes.create_string_buffer(self._lib.gyro_plant_size())
+        self._ptr = ctypes.c_void_p(ctypes.addressof(self._buf))  # converted once, not per call
         self._out = (ctypes.c_double * 6)()
+        self._step, self._outputs = self._lib.gyro_plant_step, self._lib.gyro_plant_outputs
         p = self.params
         self._c_params = Params(p.kxx, p.kyy, p.kxy, p.dxx, p.dyy, p.dxy, p.m)
         self._c_noise = PickoffNoise(*self.noise.as_array())
@@ -83,12 +85,12 @@ class GyroPlantModel:
         """Advance from t to t+h with ux, uy (N) and Omega_z (rad/s) held over the step."""
         if not h > 0.0:
             raise ValueError(f"step size h={h!r} s must be > 0")
-        self._lib.gyro_plant_step(self._buf, ux, uy, Omega_z, h)
+        self._step(self._ptr, ux, uy, Omega_z, h)
 
     def output_row(self) -> list[float]:
         """[x, vx, y, vy] measured (noise included), then ax, ay: the FMU's outputs."""
-        self._lib.gyro_plant_outputs(self._buf, self._out)
-        return list(self._out)
+        self._outputs(self._ptr, self._out)
+        return self._out[:]
 
     def measured(self) -> np.ndarray:
         """[x, vx, y, vy] (m, m/s) at the current time, noise included."""

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import ctypes
-import functools
 from dataclasses import dataclass
 from enum import IntEnum
 
@@ -43,25 +41,26 @@ class RateProfile:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "kind", RateKind(self.kind))
+        # the core's GyroRateProfile of these values (not a field: eq, repr, replace skip it)
+        object.__setattr__(self, "_c", CRate(int(self.kind), 0, float(self.offset),
+                                             float(self.amplitude), float(self.frequency),
+                                             float(self.slope), float(self.t_start)))
 
     def Omega_z(self, t: float) -> float:
         """Omega_z at time t (s), rad/s: the C core's gyro_rate_Omega_z, as in
         RateProfile.fmu."""
-        return _core().gyro_rate_Omega_z(self._c(), t)
+        return _core().gyro_rate_Omega_z(self._c, t)
 
     def Omega_z_many(self, t: np.ndarray) -> np.ndarray:
-        fn, c = _core().gyro_rate_Omega_z, self._c()
+        fn, c = _core().gyro_rate_Omega_z, self._c
         return np.array([fn(c, float(tk)) for tk in np.ravel(t)]).reshape(np.shape(t))
 
     def problems(self) -> list[str]:
         """Settings RateProfile.fmu refuses (empty when fine): the core's check."""
         msg = message_buffer()
-        return [msg.value.decode()] if _core().gyro_rate_problems(self._c(), msg,
+        return [msg.value.decode()] if _core().gyro_rate_problems(self._c, msg,
                                                                   len(msg)) else []
 
-    def _c(self) -> object:
-        return _c_rate(int(self.kind), self.offset, self.amplitude, self.frequency,
-                       self.slope, self.t_start)
 
     @classmethod
     def parse(cls, text: str) -> RateProfile:
@@ -102,10 +101,3 @@ class RateProfile:
             RateKind.sine: f"sine:{self.amplitude:g}:{self.frequency:g}:{self.offset:g}",
         }[self.kind]
 
-
-@functools.lru_cache(maxsize=256)
-def _c_rate(kind: int, offset: float, amplitude: float, frequency: float, slope: float,
-            t_start: float) -> object:
-    """The core's GyroRateProfile, passed by reference."""
-    return ctypes.byref(CRate(kind, 0, float(offset), float(amplitude), float(frequency),
-                              float(slope), float(t_start)))

@@ -52,11 +52,10 @@ def run_inprocess(sc: Scenario, noise: MeasurementNoise | None = None) -> CoSimu
         t = k * h
         ux, Om = drive.ux(t_eval), rate.Omega_z(t_eval)
         t_eval = t + h
-        z = plant.measured()
+        z = plant.output_row()  # x, vx, y, vy measured, then ax, ay
         row = data[k]
         row[0:4] = t, ux, 0.0, Om
-        row[4:8] = z
-        row[8:10] = plant.accelerations()
+        row[4:10] = z
         row[10:] = [*observer.output_row(), *observer.rate_probabilities().values()]
         if k == sc.n_steps:
             break

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..cosim.master import Component, Connection, check_result_memory, whole_steps
 from ..model.drive import TwoToneDrive
+from ..model.interfaces import SEED_MAX
 from ..model.parameters import (
     DEFAULT_PRESET,
     PARAMETER_NAMES,
@@ -81,6 +82,11 @@ class Scenario:
             raise ParameterError(
                 f"measured_pair={self.measured_pair!r}: use 1 (positions) or 2 (velocities)"
             )
+        if (isinstance(self.seed, bool) or not isinstance(self.seed, int)
+                or not 0 <= self.seed <= SEED_MAX):
+            raise ParameterError(
+                f"seed={self.seed!r} is not an integer in [0, {SEED_MAX}], the range of "
+                "GyroPlant.fmu's seed (an FMI 2.0 Integer): give such a seed")
         self.n_steps  # noqa: B018 - a step that does not divide the stop time
         self.params  # noqa: B018 - fail early on a bad preset or override
 
