@@ -362,3 +362,28 @@ def test_many_fmus_then_refusals_in_one_process_never_crash(pythonfmu_all, tmp_p
     # a freed thunk that did not crash says so through Python's unraisable hook
     assert "PyObject is NULL" not in proc.stderr and "Exception ignored" not in proc.stderr, \
         proc.stderr[-3000:]
+
+
+@pytest.mark.parametrize("folder", ["tmp-ü", "a b$+,#%?*[]'", "日本語 100%"])
+def test_a_pythonfmu_fmu_instantiates_under_any_folder_name(models_dir, tmp_path, folder):
+    """pythonfmu 0.7.0 cut "file://" off the resource URI and decoded nothing: under a
+    folder with a character a URI escapes, every FMU segfaulted (0.2.0). The loader hands
+    it the decoded path."""
+    import zipfile
+
+    from fmpy import read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    unzipdir = tmp_path / folder / "GyroLoops"
+    with zipfile.ZipFile(models_dir / "GyroLoops.fmu") as z:
+        z.extractall(unzipdir)
+    md = read_model_description(str(unzipdir / "modelDescription.xml"))
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=str(unzipdir), modelIdentifier="GyroLoops",
+                      instanceName="named")
+    slave.instantiate()
+    slave.setupExperiment(startTime=0.0)
+    slave.enterInitializationMode()
+    slave.exitInitializationMode()
+    slave.doStep(0.0, 2.5e-5)
+    slave.terminate()
+    slave.freeInstance()

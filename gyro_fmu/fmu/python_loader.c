@@ -494,12 +494,46 @@ FMI2_Export void pythonfmu_shim_report(int call_status, int failed, const char *
     copy(i->why, why ? why : "", sizeof i->why);
 }
 
+/* pythonfmu 0.7.0 turns the resource URI into a path by cutting "file://" and decodes
+ * nothing, so a folder with a character a URI escapes (non-ASCII, space, # % $ + ...)
+ * named a folder that does not exist (and the host segfaulted). Hand it file:// and the
+ * percent-decoded path instead. */
+static int hexval(char c)
+{
+    if (c >= '0' && c <= '9') return c - '0';
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+    return -1;
+}
+
+static const char *decoded_uri(const char *uri, char *out, size_t size)
+{
+    const char *p = uri;
+    size_t j;
+    if (!uri || strncmp(uri, "file:", 5) != 0) return uri;
+    p += 5;
+    if (strncmp(p, "//localhost/", 12) == 0) p += 11;
+    else if (strncmp(p, "//", 2) == 0) p += 2;
+    copy(out, "file://", size);
+    j = strlen(out);
+    while (*p && j + 1 < size) {
+        if (p[0] == '%' && hexval(p[1]) >= 0 && hexval(p[2]) >= 0) {
+            out[j++] = (char)(hexval(p[1]) * 16 + hexval(p[2]));
+            p += 3;
+        } else {
+            out[j++] = *p++;
+        }
+    }
+    out[j] = '\0';
+    return *p ? uri : out; /* too long for the buffer: pass it as it came */
+}
+
 FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
                                           fmi2String fmuGUID, fmi2String fmuResourceLocation,
                                           const fmi2CallbackFunctions *functions,
                                           fmi2Boolean visible, fmi2Boolean loggingOn)
 {
-    char err[8192] = "", info[8192] = "";
+    char err[8192] = "", info[8192] = "", uri[8192];
     struct instance *i, *outer;
     fmi2CallbackLogger logger = functions ? functions->logger : NULL;
     fmi2ComponentEnvironment env = functions ? functions->componentEnvironment : NULL;
@@ -519,7 +553,8 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuT
     copy(i->name, instanceName ? instanceName : "", sizeof i->name);
     outer = current;
     current = i;
-    i->real = real.fmi2Instantiate(instanceName, fmuType, fmuGUID, fmuResourceLocation,
+    i->real = real.fmi2Instantiate(instanceName, fmuType, fmuGUID,
+                                   decoded_uri(fmuResourceLocation, uri, sizeof uri),
                                    functions, visible, loggingOn);
     current = outer;
     if (!i->real) {
