@@ -33,7 +33,10 @@ def _cmd_fmus(args: argparse.Namespace) -> int:
 def _cmd_validate(args: argparse.Namespace) -> int:
     from .fmu.validate import validate_files
 
-    return validate_files(args.fmu, dy=args.dy, dx=args.dx)
+    try:
+        return validate_files(args.fmu, dy=args.dy, dx=args.dx)
+    except ValueError as exc:  # the band: one line, exit 2
+        raise GyroFmuError(str(exc)) from None
 
 
 def _cmd_doctor(args: argparse.Namespace) -> int:
@@ -98,7 +101,8 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run one command. Exit codes: 0 done, 1 a check failed (validate, identify), 2 an
+    """Run one command. Exit codes: 0 done, 1 a check failed (validate, identify, a sweep
+    with failed gyros), 2 an
     input, file or FMU that cannot be used (GyroFmuError) or an OS error (a folder that
     cannot be written, a file that is not there): one line naming the cause and the
     remedy, no traceback unless --debug; 130 Ctrl-C, after the work so far is written."""

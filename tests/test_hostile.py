@@ -225,3 +225,53 @@ def test_ctrl_c_during_a_sweep_keeps_every_finished_row(models_dir, tmp_path):
     summary = json.loads((tmp_path / "sweep" / "summary.json").read_text())
     assert summary["n"] == 3 and summary["n_requested"] == 12 and summary["interrupted"]
     assert len((tmp_path / "sweep" / "sweep.csv").read_text().splitlines()) == 4
+
+
+def test_inputs_that_ran_to_a_wrong_number_with_exit_0_are_refused(tmp_path, capsys):
+    """0.2.0 ran each of these and exited 0: an Integer tuning given 1.5 (truncated to 1),
+    a NaN or zero band for validate (everything 'matched'), an archive with a member
+    outside its folder, a symbolic link or 10,001 members, sweep --workers 0 and a
+    deadline past the stop time ('100 % within tolerance at 1000 ms' of a 4 ms run)."""
+    import shutil
+    import zipfile
+
+    from gyro_fmu.fmu.build import prebuilt_fmu
+    from gyro_fmu.model.parameters import ParameterError
+    from gyro_fmu.system.scenario import scenario
+    from gyro_fmu.system.sweep import SweepSpec, ToleranceModel
+
+    for tuning, why in (({"rate_model": 1.5}, "must be a whole number"),
+                        ({"joseph": 0.5}, "must be a whole number"),
+                        ({"nosuch": 1}, r"unknown tuning name\(s\) \['nosuch'\]")):
+        with pytest.raises(ParameterError, match=why):
+            scenario(tuning=tuning)
+    plant = prebuilt_fmu("RateProfile")
+    assert main(["validate", "--dy", "nan", str(plant)]) == 2
+    assert main(["validate", "--dx", "0", str(plant)]) == 2
+    assert "band dx=0 must be a whole number of samples >= 1" in capsys.readouterr().err
+    bad = []
+    for kind in ("dotdot", "symlink", "many"):
+        path = tmp_path / f"{kind}.fmu"
+        shutil.copy(plant, path)
+        with zipfile.ZipFile(path, "a") as z:
+            if kind == "dotdot":
+                z.writestr("../evil.txt", "x")
+            elif kind == "symlink":
+                info = zipfile.ZipInfo("resources/link")
+                info.external_attr = 0o120777 << 16
+                z.writestr(info, "/etc/passwd")
+            else:
+                for i in range(10_001):
+                    z.writestr(f"extra/f{i}", "")
+        bad.append(path)
+    assert main(["validate", *map(str, bad)]) == 1
+    out = capsys.readouterr().out
+    assert "'../evil.txt' would be unpacked outside the FMU's folder" in out
+    assert "'resources/link' is a symbolic link" in out and "more than the 10000" in out
+    with pytest.raises(SystemExit):
+        main(["sweep", "--workers", "0"])
+    model = ToleranceModel("park-horowitz", {}, {}, "uniform", 0)
+    with pytest.raises(ParameterError, match="must be > 0 and at most the stop time"):
+        SweepSpec(model, n=2, stop_time=0.004, deadline=1.0)
+    with pytest.raises(ParameterError, match="must be > 0 and at most the stop time"):
+        SweepSpec(model, n=2, stop_time=0.004, deadline=-0.001)

@@ -291,3 +291,37 @@ def test_a_seed_outside_the_fmu_integer_is_refused_not_wrapped() -> None:
         with pytest.raises(ParameterError, match=r"not an integer in \[0, 2147483647\]"):
             scenario(seed=seed)
     assert scenario(seed=2**31 - 1).seed == 2**31 - 1
+
+
+def test_signals_that_alias_or_vanish_are_refused_by_the_scenario() -> None:
+    """0.2.0 took a 150 kHz rate at 5 us steps (RMS error 0.70 rad/s, exit 0), a sine of
+    0 Hz and a drive tone of 0 Hz: the scenario refuses them with the numbers."""
+    from gyro_fmu.model.parameters import ParameterError
+    from gyro_fmu.system.scenario import scenario
+
+    cases = {
+        RateProfile(RateKind.sine, amplitude=1.0, frequency=150e3): "Nyquist frequency 100000",
+        RateProfile(RateKind.sine, amplitude=1.0, frequency=0.0): "frequency 0 Hz is its offset",
+    }
+    for rate, why in cases.items():
+        with pytest.raises(ParameterError, match=why):
+            scenario(rate=rate)
+    with pytest.raises(ParameterError, match="drive tone f1=120000 Hz is at or above"):
+        scenario(drive=TwoToneDrive(1e-7, 120e3, 1e-7, 1200.0))
+    with pytest.raises(ParameterError, match="drive tone f2=0 Hz adds nothing"):
+        scenario(drive=TwoToneDrive(1e-7, 4000.0, 1e-7, 0.0))
+    assert scenario(rate=RateProfile(RateKind.sine, amplitude=1.0, frequency=99e3))
+
+
+@pytest.mark.parametrize("version", VERSIONS)
+def test_an_aliasing_step_is_a_warning_from_the_fmu(version: int) -> None:
+    """An FMU does not know the host's step before it comes: a step that aliases the
+    rate's sine is logged as a warning with the numbers (fmi2Warning), once per size."""
+    run = NativeRun(prebuilt_fmu("RateProfile", version))
+    run.initialize(kind=4, amplitude=1.0, frequency=150e3)
+    run.run(np.full(3, 5e-6), ["Omega_z"])
+    warned = [m for s, m in run.messages if s == 1]
+    assert len(warned) == 1 and "Nyquist frequency 100000 Hz of the 5e-06 s" in warned[0]
+    run.run(np.full(3, 2e-6), ["Omega_z"], start_time=1.5e-5)
+    assert len([m for s, m in run.messages if s == 1]) == 1  # 2 us carries 150 kHz
+    run.close()

@@ -51,3 +51,32 @@ int gyro_rate_problems(const GyroRateProfile *r, char *msg, size_t n) {
     }
     return 0;
 }
+
+int gyro_drive_nyquist_problem(const GyroTwoToneDrive *d, double h, char *msg, size_t n) {
+    const double nyquist = 0.5 / h;
+    if (n) msg[0] = '\0';
+    for (int k = 0; k < 2; k++) {
+        const double f = k ? d->f2 : d->f1, A = k ? d->A2 : d->A1;
+        if (A != 0.0 && fabs(f) >= nyquist) {
+            snprintf(msg, n, "drive tone f%d=%g Hz is at or above the Nyquist frequency %g Hz "
+                     "of the %g s communication step: it aliases (the plant sees another "
+                     "frequency); use a step below %g s or a tone below %g Hz", k + 1, f,
+                     nyquist, h, 0.5 / fabs(f), nyquist);
+            return 1;
+        }
+    }
+    return 0;
+}
+
+int gyro_rate_nyquist_problem(const GyroRateProfile *r, double h, char *msg, size_t n) {
+    const double nyquist = 0.5 / h;
+    if (n) msg[0] = '\0';
+    if (r->kind == GYRO_RATE_SINE && r->amplitude != 0.0 && r->frequency >= nyquist) {
+        snprintf(msg, n, "rate frequency=%g Hz is at or above the Nyquist frequency %g Hz of "
+                 "the %g s communication step: it aliases (the gyro sees another rate); use a "
+                 "step below %g s or a frequency below %g Hz", r->frequency, nyquist, h,
+                 0.5 / r->frequency, nyquist);
+        return 1;
+    }
+    return 0;
+}

@@ -33,4 +33,10 @@ typedef struct {
 double gyro_rate_Omega_z(const GyroRateProfile *r, double t);
 int gyro_rate_problems(const GyroRateProfile *r, char *msg, size_t n);
 
+/* Sampled every h seconds (the communication step), a tone at or above the Nyquist
+ * frequency 1 / (2 h) aliases: the plant sees another frequency than the one set, and
+ * the run gives a wrong number with no error. "" and 0 when every tone is below it. */
+int gyro_drive_nyquist_problem(const GyroTwoToneDrive *d, double h, char *msg, size_t n);
+int gyro_rate_nyquist_problem(const GyroRateProfile *r, double h, char *msg, size_t n);
+
 #endif

@@ -297,7 +297,8 @@ Status inst_do_step(Instance *inst, double t, double h) {
     }
     const GyroModel *m = inst->model;
     char msg[GYRO_MESSAGE_SIZE], why[3 * GYRO_MESSAGE_SIZE];
-    if (m->step(inst->data, t, h, msg, sizeof msg) == GYRO_HOOK_ERROR) {
+    const GyroHookStatus hook = m->step(inst->data, t, h, msg, sizeof msg);
+    if (hook == GYRO_HOOK_ERROR) {
         snprintf(why, sizeof why, "the step from t=%.9g s over %g s failed: %s", t, h, msg);
         return fail(inst, why);
     }
@@ -330,6 +331,10 @@ Status inst_do_step(Instance *inst, double t, double h) {
         return fail(inst, why);
     }
     inst->time = t + h;
+    if (hook == GYRO_HOOK_WARNING) {
+        inst_logf(inst, ST_WARNING, "%s", msg);
+        return ST_WARNING;
+    }
     return ST_OK;
 }
 

@@ -40,7 +40,8 @@ typedef struct {
     /* End of initialization: parameters are final; build the model, set the outputs of
      * the start time. msg says why on error (then the instance cannot step). */
     GyroHookStatus (*setup)(void *data, double start_time, char *msg, size_t n);
-    /* Advance from t to t + h (h > 0, finite) with the inputs held, set the outputs. */
+    /* Advance from t to t + h (h > 0, finite) with the inputs held, set the outputs; a
+     * warning (msg) still advances. */
     GyroHookStatus (*step)(void *data, double t, double h, char *msg, size_t n);
     /* A state deserialized from bytes (data from outside), in step mode: check it against
      * the variables it holds and drop anything cached; NULL when nothing to check. */

@@ -82,6 +82,10 @@ CORE_FUNCTIONS = {
     "gyro_drive_problems": (c_int, [POINTER(TwoToneDrive), c_char_p, c_size_t]),
     "gyro_rate_Omega_z": (c_double, [POINTER(RateProfile), c_double]),
     "gyro_rate_problems": (c_int, [POINTER(RateProfile), c_char_p, c_size_t]),
+    "gyro_drive_nyquist_problem": (c_int, [POINTER(TwoToneDrive), c_double, c_char_p,
+                                           c_size_t]),
+    "gyro_rate_nyquist_problem": (c_int, [POINTER(RateProfile), c_double, c_char_p,
+                                          c_size_t]),
 }
 
 

@@ -194,11 +194,20 @@ def _start_variable(inst: Instance, var: str, value: object, causality: str,
 
 
 def _set_value(slave: FMU2Slave, v, value: float | int | bool | str) -> None:
+    """Set one start value; an Integer given a non-integral number or a Boolean given
+    anything but 0/1 is refused by name (int(1.5) would silently run 1)."""
     if v.type == "Real":
         slave.setReal([v.valueReference], [float(value)])
     elif v.type in ("Integer", "Enumeration"):
-        slave.setInteger([v.valueReference], [int(value)])
+        number = float(value)
+        if not (number.is_integer() and -2**31 <= number < 2**31):
+            raise CoSimulationError(
+                f"{v.name}={value!r} is not an integer the FMI 2.0 Integer {v.name} can "
+                "hold: give a whole number")
+        slave.setInteger([v.valueReference], [int(number)])
     elif v.type == "Boolean":
+        if value not in (0, 1):  # True and False included
+            raise CoSimulationError(f"{v.name}={value!r} is not a Boolean: give 0 or 1")
         slave.setBoolean([v.valueReference], [bool(value)])
     else:
         slave.setString([v.valueReference], [str(value)])

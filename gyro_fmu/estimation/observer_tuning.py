@@ -94,6 +94,11 @@ class ObserverTuning:
         for f in fields(self):
             v = getattr(self, f.name)
             if f.name in ("joseph", "omega_order", "rate_model"):
+                if isinstance(v, float) and not v.is_integer():
+                    raise ValueError(f"ObserverTuning.{f.name}={v!r} must be a whole number "
+                                     "(an FMU Integer parameter)")
+                if f.name == "joseph" and v not in (0, 1):
+                    raise ValueError(f"ObserverTuning.joseph={v!r}: use 1 (Joseph form) or 0")
                 continue
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0.0):
                 raise ValueError(

@@ -204,6 +204,31 @@ def check_coverage(table: np.ndarray, what: str, names: list[str],
                                    + "; ".join(problems) + ": rebuild the FMU")
 
 
+#: An FMU archive is untrusted data: limits checked before anything is unpacked.
+MAX_MEMBERS = 10_000
+MAX_INFLATED = 1 << 30  # bytes
+
+
+def archive_problem(z: zipfile.ZipFile) -> str | None:
+    """Why this archive is not opened (None when fine): too many members or too many
+    inflated bytes (a zip bomb fills the disk when unpacked), a member whose name leaves
+    the folder it is unpacked into (absolute, ../, a drive), or a symbolic link."""
+    infos = z.infolist()
+    if len(infos) > MAX_MEMBERS:
+        return f"{len(infos)} members, more than the {MAX_MEMBERS} an FMU may have here"
+    inflated = sum(i.file_size for i in infos)
+    if inflated > MAX_INFLATED:
+        return (f"its members inflate to {inflated / 2**30:.1f} GiB, more than "
+                f"{MAX_INFLATED >> 30} GiB")
+    for i in infos:
+        name = i.filename.replace("\\", "/")
+        if name.startswith("/") or ".." in name.split("/") or (len(name) > 1 and name[1] == ":"):
+            return f"member {i.filename!r} would be unpacked outside the FMU's folder"
+        if (i.external_attr >> 16) & 0o170000 == 0o120000:
+            return f"member {i.filename!r} is a symbolic link"
+    return None
+
+
 def validate_reference(fmu: Path, dy: float = 1e-6, dx: int = 1) -> list[SignalCheck]:
     """Re-simulate the FMU's default experiment and check every output against its band.
 
@@ -222,6 +247,10 @@ def validate_reference(fmu: Path, dy: float = 1e-6, dx: int = 1) -> list[SignalC
                                    "): name an .fmu file")
     try:
         with zipfile.ZipFile(fmu) as z:
+            problem = archive_problem(z)
+            if problem:
+                raise ReferenceResultError(f"not opened: {problem}; the FMU is damaged or "
+                                           "not trustworthy")
             bad = z.testzip()  # every member's CRC, before any code in it is loaded
             if bad is not None:
                 raise ReferenceResultError(f"member {bad} fails its CRC check: the archive is "

@@ -50,3 +50,11 @@ class TwoToneDrive:
         if _core().gyro_drive_problems(self._c, msg, len(msg)):
             return [msg.value.decode()]
         return []
+
+    def sampling_problem(self, step: float) -> str | None:
+        """Why a communication step of `step` s cannot carry this drive (a tone at or above
+        its Nyquist frequency aliases), None if it can: the core's check, which
+        TwoToneDrive.fmu logs as a warning."""
+        msg = message_buffer()
+        return (msg.value.decode() if _core().gyro_drive_nyquist_problem(self._c, step, msg,
+                                                                        len(msg)) else None)

@@ -55,6 +55,14 @@ class RateProfile:
         fn, c = _core().gyro_rate_Omega_z, self._c
         return np.array([fn(c, float(tk)) for tk in np.ravel(t)]).reshape(np.shape(t))
 
+    def sampling_problem(self, step: float) -> str | None:
+        """Why a communication step of `step` s cannot carry this rate (a sine at or above
+        its Nyquist frequency aliases), None if it can: the core's check, which
+        RateProfile.fmu logs as a warning."""
+        msg = message_buffer()
+        return (msg.value.decode() if _core().gyro_rate_nyquist_problem(self._c, step, msg,
+                                                                       len(msg)) else None)
+
     def problems(self) -> list[str]:
         """Settings RateProfile.fmu refuses (empty when fine): the core's check."""
         msg = message_buffer()

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -87,8 +87,52 @@ class Scenario:
             raise ParameterError(
                 f"seed={self.seed!r} is not an integer in [0, {SEED_MAX}], the range of "
                 "GyroPlant.fmu's seed (an FMI 2.0 Integer): give such a seed")
+        self._check_signals()
+        self._check_tuning()
         self.n_steps  # noqa: B018 - a step that does not divide the stop time
         self.params  # noqa: B018 - fail early on a bad preset or override
+
+    def _check_tuning(self) -> None:
+        """The observer tuning, checked before any run by the observer's own rules (an
+        Integer given 1.5 was truncated to 1 by the FMU path and ran)."""
+        from ..estimation.observer_tuning import ObserverTuning
+
+        try:
+            ObserverTuning(**dict(self.tuning))
+        except TypeError:
+            known = sorted(f.name for f in fields(ObserverTuning))
+            unknown = sorted(set(self.tuning) - set(known))
+            raise ParameterError(f"unknown tuning name(s) {unknown}: the names are "
+                                 f"{known}") from None
+        except ValueError as exc:
+            raise ParameterError(str(exc)) from None
+
+    def _check_signals(self) -> None:
+        """Refuse what gives a wrong number with no error: a tone or a sine rate at or
+        above the Nyquist frequency of the step (it aliases), a sine rate of 0 Hz (it is
+        its offset: say constant), a drive tone of 0 Hz (it adds nothing: one tone does
+        not separate the 8 unknowns, eq. 7). The words are the C core's where it checks."""
+        problems = list(self.the_drive.problems())
+        signals = [self.the_drive]
+        if isinstance(self.rate, RateProfile):  # a rate of the user's own kind: theirs
+            problems += self.rate.problems()
+            signals.append(self.rate)
+        for signal in signals:
+            problem = signal.sampling_problem(self.step)
+            if problem:
+                problems.append(problem)
+        if isinstance(self.rate, RateProfile) and self.rate.kind is RateKind.sine \
+                and self.rate.amplitude != 0.0 and self.rate.frequency == 0.0:
+            problems.append("rate sine of frequency 0 Hz is its offset: give a frequency > 0, "
+                            "or a constant rate (constant:OFFSET)")
+        d = self.the_drive
+        for k, (A, f) in enumerate(((d.A1, d.f1), (d.A2, d.f2)), start=1):
+            if A != 0.0 and f == 0.0:
+                problems.append(f"drive tone f{k}=0 Hz adds nothing (sin 0 = 0): two distinct "
+                                "tones are needed to separate the 8 unknowns (eq. 7); give "
+                                f"f{k} > 0")
+        if problems:
+            raise ParameterError("; ".join(problems))
 
     @property
     def params(self) -> GyroParameters:

@@ -136,6 +136,13 @@ class SweepSpec:
         if self.observer_tuning not in OBSERVER_TUNINGS:
             raise ParameterError(f"observer_tuning must be one of {OBSERVER_TUNINGS}, not "
                                  f"{self.observer_tuning!r}")
+        if self.deadline is not None and not (
+                math.isfinite(self.deadline) and 0.0 < self.deadline <= self.stop_time):
+            # a deadline past the stop time was judged at the last sample ("100 % within
+            # tolerance at 1000 ms" of a 4 ms run)
+            raise ParameterError(f"deadline={self.deadline!r} s must be > 0 and at most the "
+                                 f"stop time {self.stop_time:g} s: give a deadline inside "
+                                 "the run, or a longer --stop-time")
 
     @property
     def the_deadline(self) -> float:

@@ -4,6 +4,7 @@ and its console report against the Cramer-Rao bound (docs/sweep-bound.md)."""
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from ..fmu.build import MODELS_DIR
@@ -93,12 +94,16 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
           "estimator: " + (ms(eff) if eff is not None else "not within the run"
                            if s["bound"] else "n/a (noise off)"))
     _print_bound(s["bound"])
-    for f in s["failures"][:10]:
+    for f in s["failures"]:
         print(f"  failed gyro {f['gyro']}: {f['reason']}")
     print("wrote " + ", ".join(str(p) for p in paths))
     if res.interrupted:
         raise KeyboardInterrupt(f"sweep {res.interrupted}; their rows and the partial "
                                 f"summary are in {args.out}")
+    if s["failed"]:  # a lot with failed members is not a clean result (exit 1, as a check)
+        print(f"gyro-fmu: {s['failed']} of {s['n']} gyros failed (listed above, and in "
+              "sweep.csv with their reasons)", file=sys.stderr)
+        return 1
     return 0
 
 
@@ -118,7 +123,8 @@ def register(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) -
     sw.add_argument("--deadline", type=float, help="s (default: the stop time, 0.08)")
     sw.add_argument("--scheduler", help="address of an existing Dask scheduler "
                                         "(default: a local cluster)")
-    sw.add_argument("--workers", type=int, help="local cluster workers (default: all cores)")
+    sw.add_argument("--workers", type=_positive_int,
+                    help="local cluster workers (default: all cores)")
     sw.add_argument("--models", default=str(MODELS_DIR),
                    help="folder of our FMUs (default ./models)")
     sw.add_argument("--out", default="runs/sweep", help="output folder")

@@ -12,6 +12,7 @@
 typedef struct {
     Variables v;
     GyroRateProfile rate;
+    double checked_step; /* the last step size checked against the Nyquist frequency */
 } ModelData;
 
 static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) {
@@ -25,8 +26,14 @@ static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) 
 }
 
 static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) {
-    (void)msg, (void)n;
     ModelData *d = data;
+    if (h != d->checked_step) { /* a step that aliases: warned once per step size */
+        d->checked_step = h;
+        if (gyro_rate_nyquist_problem(&d->rate, h, msg, n)) {
+            d->v.Omega_z = gyro_rate_Omega_z(&d->rate, t + h);
+            return GYRO_HOOK_WARNING;
+        }
+    }
     d->v.Omega_z = gyro_rate_Omega_z(&d->rate, t + h);
     return GYRO_HOOK_OK;
 }

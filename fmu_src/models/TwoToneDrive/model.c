@@ -12,6 +12,7 @@
 typedef struct {
     Variables v;
     GyroTwoToneDrive drive;
+    double checked_step; /* the last step size checked against the Nyquist frequency */
 } ModelData;
 
 static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) {
@@ -24,8 +25,14 @@ static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) 
 }
 
 static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) {
-    (void)msg, (void)n;
     ModelData *d = data;
+    if (h != d->checked_step) { /* a step that aliases: warned once per step size */
+        d->checked_step = h;
+        if (gyro_drive_nyquist_problem(&d->drive, h, msg, n)) {
+            d->v.ux = gyro_drive_ux(&d->drive, t + h);
+            return GYRO_HOOK_WARNING;
+        }
+    }
     d->v.ux = gyro_drive_ux(&d->drive, t + h);
     return GYRO_HOOK_OK;
 }
