@@ -20,10 +20,9 @@ import tempfile
 import time
 from pathlib import Path
 
+from compiled_null import build_compiled_null_fmus
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
-
-from compiled_null import build_compiled_null_fmus
 
 from gyro_fmu.fmu.build import NATIVE_NAMES, build_fmu, prebuilt_fmu
 
