@@ -275,3 +275,32 @@ def test_inputs_that_ran_to_a_wrong_number_with_exit_0_are_refused(tmp_path, cap
         SweepSpec(model, n=2, stop_time=0.004, deadline=1.0)
     with pytest.raises(ParameterError, match="must be > 0 and at most the stop time"):
         SweepSpec(model, n=2, stop_time=0.004, deadline=-0.001)
+
+
+def test_careless_inputs_get_one_line_and_exit_2_not_a_traceback(tmp_path, capsys):
+    """Each of these gave a Python traceback in 0.2.0 (and --drive a TypeError)."""
+    binary = tmp_path / "binary.csv"
+    binary.write_bytes(b"\xff\xfe\x00\x01binary")
+    utf16 = tmp_path / "utf16.csv"
+    utf16.write_text("time,drive.ux,plant.x,plant.y\n0,0,0,0\n", encoding="utf-16")
+    notzip = tmp_path / "notzip.fmu"
+    notzip.write_text("not a zip")
+    cases = {
+        ("identify", str(binary)): "is not a UTF-8 text CSV (byte 0xff at 0",
+        ("identify", str(utf16)): "is not a UTF-8 text CSV",
+        ("observability", "--window", "0"): "--window: 0.0 must be a finite number > 0",
+        ("design-drive", "--window", "-1"): "--window: -1.0 must be a finite number > 0",
+        ("design-drive", "--f-step", "0"): "--f-step: 0.0 must be a finite number > 0",
+        ("doctor", "--fmu", str(notzip)): "is not an FMU the doctor can open",
+        ("selfcal", "--drift", "0", "0"): "damping factor 0.0 must be a finite number > 0",
+        ("run", "--drive", "nosuch=1"): "unknown --drive name(s) ['nosuch']",
+        ("sweep", "-n", "2", "--scheduler", "tcp://:::1"): "cannot reach the Dask scheduler",
+    }
+    for argv, why in cases.items():
+        try:
+            code = main(list(argv))
+        except SystemExit as exc:  # argparse's refusal
+            code = exc.code
+        err = capsys.readouterr().err
+        assert code == 2, (argv, err)
+        assert why in err and "Traceback" not in err, (argv, err)

@@ -37,8 +37,13 @@ def test_a_manifest_source_that_climbs_out_is_refused_and_nothing_is_written(
         if n == MANIFEST else [(n, d), (f"{LS_REF_DIR}/{source}", d)] if n == OUT else d))
     monkeypatch.chdir(tmp_path)
     assert main(["validate", str(fmu)]) == 1  # was: writes ESCAPED.csv, "all outputs match"
-    assert "a reference must be a plain file name" in capsys.readouterr().out
+    # the member climbing out is refused before the archive is opened at all
+    assert "would be unpacked outside the FMU's folder" in capsys.readouterr().out
     assert not target.exists()
+    named_only = _copy(models_dir / "GyroPlant.fmu", tmp_path / "n.fmu", lambda n, d: (
+        d.replace(b'source="GyroPlant_out.csv"', b'source="../x.csv"') if n == MANIFEST else d))
+    assert main(["validate", str(named_only)]) == 1  # the manifest's name alone: refused too
+    assert "a reference must be a plain file name" in capsys.readouterr().out
 
 
 def test_a_cut_reference_or_a_missing_column_fails(models_dir, tmp_path, capsys):

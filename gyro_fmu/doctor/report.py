@@ -15,9 +15,11 @@ import platform
 import re
 import sys
 import tempfile
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..errors import GyroFmuError
 from ..fmu.build import MODELS_DIR
 from ..fmu.loader import recorded_python
 from .environment import (
@@ -187,6 +189,10 @@ def _shell_quote(value: str) -> str:
     return value if re.fullmatch(r"[\w./:=+-]*", value) else "'" + value.replace("'", "'\\''") + "'"
 
 
+class DoctorError(GyroFmuError):
+    """The FMU given to the doctor cannot be opened."""
+
+
 def default_fmu(workdir: Path) -> Path:
     """A pythonfmu FMU to check: models/GyroObserver.fmu if there, else the pythonfmu
     flavour of GyroPlant built into workdir. (The native FMUs need no settings: any host
@@ -272,6 +278,13 @@ def _check(report: DoctorReport, info: FmuInfo, work: Path) -> None:
 
 def main(fmu: Path | None = None, compile_host: bool = True) -> int:
     """Print the doctor's report; exit status 0 when the setup works, 1 otherwise."""
+    if fmu is not None:
+        try:
+            with zipfile.ZipFile(fmu) as z:
+                z.getinfo("modelDescription.xml")
+        except (zipfile.BadZipFile, KeyError, OSError) as exc:
+            raise DoctorError(f"{fmu} is not an FMU the doctor can open ({exc}): name an .fmu "
+                              "file (a zip archive with a modelDescription.xml)") from None
     report = doctor(fmu, compile_host)
     print(report.format())
     return 0 if report.ok else 1

@@ -79,8 +79,16 @@ class Record:
 def read_record(path: Path, measured_pair: int = 1, stop_time: float | None = None) -> Record:
     """Read a CSV with columns time, drive.ux, [drive.uy], and the measured pair."""
     path = Path(path)
-    with path.open() as f:
-        columns = [c.strip() for c in f.readline().strip().split(",")]
+    try:
+        with path.open(encoding="utf-8") as f:
+            columns = [c.strip() for c in f.readline().strip().split(",")]
+            f.read()  # the whole file must be text
+    except UnicodeDecodeError as exc:
+        raise IdentificationError(
+            f"{path} is not a UTF-8 text CSV (byte 0x{exc.object[exc.start]:02x} at "
+            f"{exc.start} cannot be read): save the record as a UTF-8 CSV") from None
+    except IsADirectoryError:
+        raise IdentificationError(f"{path} is a folder: name the results CSV") from None
     if measured_pair not in PAIR_COLUMNS:
         raise IdentificationError(f"measured_pair must be 1 or 2, got {measured_pair!r}")
     need = ["time", "drive.ux", *PAIR_COLUMNS[measured_pair]]

@@ -153,6 +153,12 @@ class ResonatorParameters:
     def drifted(self, delta_f: float = 0.4, damping_factor: float = 1.05) -> ResonatorParameters:
         """The same instrument after a temperature-like drift: both modes shifted by
         delta_f (Hz), every damping (dxx, dyy, dxy) scaled by damping_factor."""
+        if not (math.isfinite(damping_factor) and damping_factor > 0.0):
+            raise ResonatorError(f"damping factor {damping_factor!r} must be a finite number "
+                                 "> 0 (1.05: every damping 5 % higher)")
+        if not math.isfinite(delta_f) or min(self.f_x, self.f_y) + delta_f <= 0.0:
+            raise ResonatorError(f"frequency drift {delta_f!r} Hz must be finite and leave "
+                                 "both modes above 0 Hz")
         return replace(
             self, f_x=self.f_x + delta_f, f_y=self.f_y + delta_f,
             Q_x=self.Q_x * (self.f_x + delta_f) / self.f_x / damping_factor,

@@ -19,6 +19,8 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 
+from ..errors import GyroFmuError
+
 
 def run_tasks(
     fn: Callable[..., dict],
@@ -39,7 +41,12 @@ def run_tasks(
         cluster = local_cluster(n_workers)
         client = Client(cluster)
     else:
-        client = Client(scheduler)
+        try:
+            client = Client(scheduler, timeout="30s")
+        except (ValueError, OSError, TimeoutError) as exc:  # a malformed or dead address
+            raise SchedulerError(f"cannot reach the Dask scheduler {scheduler!r} ({exc}): "
+                                 "give its address as tcp://HOST:PORT ([::1] for IPv6), "
+                                 "or leave --scheduler out for a local cluster") from None
     try:
         n_workers = len(client.scheduler_info().get("workers", {})) or (n_workers or 1)
         start = time.perf_counter()
@@ -78,6 +85,10 @@ def dask_setup(worker: object) -> None:
     KeyboardInterrupt traceback of its own when a terminal's Ctrl-C reaches the group."""
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+class SchedulerError(GyroFmuError, OSError):
+    """The scheduler address given cannot be used (the CLI prints it in one line)."""
 
 
 def local_cluster(n_workers: int):

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
+from dataclasses import fields, replace
 from pathlib import Path
 
 from ..fmu.build import MODELS_DIR
@@ -25,6 +27,17 @@ def _assignments(items: list[str] | None, what: str) -> dict[str, float]:
         except ValueError:
             raise ParameterError(f"{what} {item!r}: {value!r} is not a number") from None
     return out
+
+
+def _positive_float(text: str) -> float:
+    """argparse type: a finite number > 0 (a window, a step, a frequency step)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(value) and value > 0.0):
+        raise argparse.ArgumentTypeError(f"{value!r} must be a finite number > 0")
+    return value
 
 
 def _positive_int(text: str) -> int:
@@ -54,7 +67,11 @@ def _scenario_from(args: argparse.Namespace) -> Scenario:
         from ..model.drive import TwoToneDrive
 
         values = _assignments(args.drive, "--drive")
-        changes["drive"] = TwoToneDrive(**{**vars(base.the_drive), **values})
+        known = [f.name for f in fields(TwoToneDrive)]
+        unknown = sorted(set(values) - set(known))
+        if unknown:
+            raise ParameterError(f"unknown --drive name(s) {unknown}: the names are {known}")
+        changes["drive"] = replace(base.the_drive, **values)
     for name in ("stop_time", "step", "noise", "seed", "measured_pair", "Omega_z_0"):
         value = getattr(args, name)
         if value is not None:
@@ -292,7 +309,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     o = sub.add_parser("observability", parents=[common],
                        help="rank and condition of the eq. 7 test, one tone vs two")
-    o.add_argument("--window", type=float, default=0.04, help="window length, s")
+    o.add_argument("--window", type=_positive_float, default=0.04, help="window length, s")
     o.set_defaults(func=_cmd_observability)
 
     i = sub.add_parser("identify", parents=[common],
@@ -303,7 +320,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     i.add_argument("--noise-std", dest="noise_std", type=float, nargs=2, metavar=("STD1", "STD2"),
                    help="absolute noise std of the two measured signals (default: estimated "
                         "from the residuals)")
-    i.add_argument("--window", type=float, help="use only the first WINDOW s of the record")
+    i.add_argument("--window", type=_positive_float,
+                   help="use only the first WINDOW s of the record")
     i.add_argument("--fit-initial-state", dest="fit_initial_state", action="store_true",
                    help="fit the initial state too (default: the plant is at rest at the "
                         "first sample)")
@@ -315,10 +333,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     dd = sub.add_parser("design-drive", parents=[common],
                         help="Cramer-Rao bound over a grid of two-tone drives; propose the "
                              "pair minimizing the bound on Omega_z (or a weighted sum)")
-    dd.add_argument("--window", type=float, default=0.04, help="window length, s")
+    dd.add_argument("--window", type=_positive_float, default=0.04, help="window length, s")
     dd.add_argument("--f-min", dest="f_min", type=float, default=500.0, help="Hz")
     dd.add_argument("--f-max", dest="f_max", type=float, default=6000.0, help="Hz")
-    dd.add_argument("--f-step", dest="f_step", type=float, default=250.0, help="Hz")
+    dd.add_argument("--f-step", dest="f_step", type=_positive_float, default=250.0, help="Hz")
     dd.add_argument("--force-limit", dest="force_limit", type=float,
                     help="A1 + A2, N (default: the scenario drive's A1 + A2)")
     dd.add_argument("--splits", type=float, nargs="+", default=[0.25, 0.5, 0.75],
