@@ -9,6 +9,7 @@ test_hostile_validate.py.
 from __future__ import annotations
 
 import json
+import math
 import os
 import signal
 import threading
@@ -304,3 +305,15 @@ def test_careless_inputs_get_one_line_and_exit_2_not_a_traceback(tmp_path, capsy
         err = capsys.readouterr().err
         assert code == 2, (argv, err)
         assert why in err and "Traceback" not in err, (argv, err)
+
+
+def test_drive_settings_reach_the_scenario():
+    """--drive NAME=VALUE replaces the named tone settings and keeps the others."""
+    from gyro_fmu.cli import parser
+    from gyro_fmu.system.cli import _scenario_from
+
+    sc = _scenario_from(parser().parse_args(["run", "--drive", "f1=4100", "--drive", "A2=0.5"]))
+    d = sc.the_drive
+    assert (d.A1, d.f1, d.A2, d.f2) == (1e-7, 4100.0, 0.5, 1200.0)
+    assert d.ux(1e-4) == 1e-7 * math.sin(2 * math.pi * 4100 * 1e-4) + 0.5 * math.sin(
+        2 * math.pi * 1200 * 1e-4)
