@@ -317,3 +317,39 @@ def test_drive_settings_reach_the_scenario():
     assert (d.A1, d.f1, d.A2, d.f2) == (1e-7, 4100.0, 0.5, 1200.0)
     assert d.ux(1e-4) == 1e-7 * math.sin(2 * math.pi * 4100 * 1e-4) + 0.5 * math.sin(
         2 * math.pi * 1200 * 1e-4)
+
+
+def test_outputs_are_whole_and_known_to_belong_together(tmp_path, capsys):
+    """results.csv and summary.json are renamed into place whole; the summary names its
+    results by run id, rows and SHA-256, and report/identify refuse a pair that does not
+    belong together; a folder a live run writes into is refused; a dead run's lock is
+    taken over."""
+    import subprocess
+    import sys
+
+    from gyro_fmu.system.outputs import LOCK
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    for folder, seed in ((a, 1), (b, 2)):
+        assert main(["run", "--stop-time", "0.0002", "--noise", "1e-4", "--seed", str(seed),
+                     "--no-figures", "--out", str(folder)]) == 0
+    summary = json.loads((a / "summary.json").read_text())
+    assert summary["results"]["rows"] == 41 and len(summary["results"]["sha256"]) == 64
+    assert not list(a.glob(".*.part")) and not (a / LOCK).exists()
+    (a / "results.csv").write_bytes((b / "results.csv").read_bytes())  # a mixed pair
+    capsys.readouterr()
+    assert main(["report", str(a)]) == 2
+    assert "belong to different runs" in capsys.readouterr().err
+    assert main(["identify", str(a / "results.csv")]) == 2
+    assert "belong to different runs" in capsys.readouterr().err
+    holder = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        (b / LOCK).write_text(str(holder.pid))
+        assert main(["run", "--stop-time", "0.0002", "--no-figures", "--out", str(b)]) == 2
+        assert f"being written by another gyro-fmu run (process {holder.pid})" in \
+            capsys.readouterr().err
+    finally:
+        holder.kill()
+        holder.wait()
+    assert main(["run", "--stop-time", "0.0002", "--no-figures", "--out", str(b)]) == 0
+    assert not (b / LOCK).exists()  # the dead run's lock was taken over, then released

@@ -115,8 +115,24 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_beside_summary(results: Path) -> None:
+    """A results.csv of `gyro-fmu run` with a summary.json beside it must be the one that
+    summary describes (a new run's results beside an old summary are refused)."""
+    from .outputs import check_pair
+
+    summary_path = results.parent / "summary.json"
+    try:
+        summary = json.loads(summary_path.read_text())
+    except (OSError, ValueError):
+        return  # any CSV of the user's own: nothing to match
+    record = summary.get("results") if isinstance(summary, dict) else None
+    if isinstance(record, dict) and record.get("file") == results.name:
+        check_pair(summary, results)
+
+
 def _cmd_report(args: argparse.Namespace) -> int:
     from ..model.parameters import GyroParameters
+    from .outputs import check_pair
     from .run import load_results, make_figures
 
     run_dir = Path(args.run_dir)
@@ -130,6 +146,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     except (ValueError, KeyError, TypeError, AttributeError) as exc:
         raise ParameterError(f"{summary_path} is damaged or not written by `gyro-fmu run` "
                              f"({type(exc).__name__}: {exc}): rerun the scenario") from None
+    check_pair(summary, run_dir / "results.csv")  # the results this summary describes
     for path in make_figures(load_results(run_dir / "results.csv"), truth, run_dir):
         print(f"wrote {path}")
     return 0
@@ -192,6 +209,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     from ..model.parameters import GyroParameters
 
     sc = _scenario_from(args)  # the start of the fit: --preset/--set (default: park-horowitz)
+    _check_beside_summary(Path(args.results))
     rec = read_record(Path(args.results), args.measured_pair or 1, args.window)
     start = GyroParameters(**sc.initial_guess) if args.start_from_guess else sc.params
     ident = identify(rec, start, sc.Omega_z_0, noise_std=args.noise_std,

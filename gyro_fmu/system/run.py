@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import tempfile
 import time
+import uuid
 import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import asdict
@@ -19,6 +21,7 @@ from ..estimation.metrics import ESTIMATED, summarize
 from ..fmu.build import FMU_NAMES, MODELS_DIR, ensure_current
 from ..model.parameters import GyroParameters, validate_for_plant
 from ..model.plant import MeasurementNoise
+from .outputs import atomic_write, results_record, run_lock
 from .scenario import Scenario, absolute_noise, fmu_system, observer_tuning
 
 HAT = {"Omega_z": "Omega_hat"}
@@ -92,32 +95,45 @@ def run_and_report(
     created = [d for d in (out_dir, *out_dir.parents) if not d.exists()]
     out_dir.mkdir(parents=True, exist_ok=True)
     try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            validate_for_plant(sc.params)  # the growth-rate warning goes into summary.json
-            noise = absolute_noise(sc)
-            start = time.perf_counter()
-            try:
-                result = run_fmus(sc, models_dir, fmus, noise)
-                interrupted = None
-            except CoSimulationInterrupted as exc:
-                if exc.result is None or len(exc.result.data) < 2:
-                    raise
-                result, interrupted = exc.result, exc
-            wall = time.perf_counter() - start
+        with run_lock(out_dir):
+            return _run_into(sc, out_dir, models_dir, fmus, figures)
     except BaseException:
         for folder in created:  # nothing to keep: no empty folders left behind
-            if any(folder.iterdir()):
+            if folder.is_dir() and any(folder.iterdir()):
                 break
-            folder.rmdir()
+            with contextlib.suppress(OSError):
+                folder.rmdir()
         raise
+
+
+def _run_into(sc: Scenario, out_dir: Path, models_dir: Path, fmus: Mapping[str, Path] | None,
+              figures: bool) -> dict:
+    """run_and_report's work, with the folder's lock held."""
+    run_id = uuid.uuid4().hex
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        validate_for_plant(sc.params)  # the growth-rate warning goes into summary.json
+        noise = absolute_noise(sc)
+        start = time.perf_counter()
+        try:
+            result = run_fmus(sc, models_dir, fmus, noise)
+            interrupted = None
+        except CoSimulationInterrupted as exc:
+            if exc.result is None or len(exc.result.data) < 2:
+                raise
+            result, interrupted = exc.result, exc
+        wall = time.perf_counter() - start
     messages = [str(w.message) for w in caught]
-    write_or_rescue(result.write_csv, out_dir / "results.csv")
+    # an old summary must never sit beside new results: it goes before they come
+    (out_dir / "summary.json").unlink(missing_ok=True)
+    results = write_or_rescue(result.write_csv, out_dir / "results.csv")
     summary = summary_of(sc, result, wall, messages, noise)
+    summary["run_id"] = run_id
+    summary["results"] = results_record(results, run_id, len(result.data))
     if interrupted is not None:
         summary["interrupted"] = {"at_s": float(result["time"][-1]), "message": str(interrupted)}
     write_or_rescue(lambda path: path.write_text(json.dumps(summary, indent=2)),
-                    out_dir / "summary.json")
+                    results.parent / "summary.json")
     if interrupted is not None:
         interrupted.args = (f"{interrupted}; wrote what was simulated to "
                             f"{out_dir / 'results.csv'} and summary.json",)
@@ -129,10 +145,10 @@ def run_and_report(
 
 def write_or_rescue(write: Callable[[Path], None], path: Path) -> Path:
     """write(path); if the OS refuses, write(same name in a fresh temporary folder) and
-    raise a GyroFmuError naming both, so that computed results are never lost."""
+    raise a GyroFmuError naming both, so that computed results are never lost. Returns
+    the path written."""
     try:
-        write(path)
-        return path
+        return atomic_write(path, write)  # whole under its name, or not there at all
     except OSError as exc:
         rescue = Path(tempfile.mkdtemp(prefix="gyro-fmu-rescue-")) / path.name
         write(rescue)

@@ -1,0 +1,121 @@
+"""Run outputs written whole or not at all, and known to belong together.
+
+- Every file goes to a temporary name in its folder and is renamed into place, so a kill,
+  a full disk or a lost folder never leaves a partial file under its final name.
+- summary.json names the results it belongs to: the run id, the row count and the SHA-256
+  of results.csv. `gyro-fmu report` refuses a pair that does not match, for example the
+  results of a new run beside the summary of an old one. The old summary is removed
+  before the new results go in, so that no such pair is left even by a kill between them.
+- A lock file keeps a second run out of a folder a live run is writing into; the lock of
+  a dead run (its process gone) is taken over.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import tempfile
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+from ..errors import GyroFmuError
+
+LOCK = ".gyro-fmu.lock"
+
+
+class RunFolderBusyError(GyroFmuError):
+    """Another live run writes into the folder."""
+
+
+class MismatchedOutputsError(GyroFmuError):
+    """A summary.json and a results.csv that do not belong together."""
+
+
+def atomic_write(path: Path, write: Callable[[Path], object]) -> Path:
+    """write(temporary path in path's folder), then rename it to path."""
+    path = Path(path)
+    fd, temp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    os.close(fd)
+    try:
+        write(Path(temp))
+        os.chmod(temp, 0o644)  # mkstemp's 0600 would hide the results from other users
+        os.replace(temp, path)
+    except BaseException:
+        Path(temp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def file_digest(path: Path) -> str:
+    h = hashlib.sha256()
+    with Path(path).open("rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+@contextlib.contextmanager
+def run_lock(folder: Path) -> Iterator[None]:
+    """Hold folder/.gyro-fmu.lock for the run; refuse if a live process holds it."""
+    lock = Path(folder) / LOCK
+    for _ in range(2):
+        try:
+            fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+            break
+        except FileExistsError:
+            try:
+                pid = int(lock.read_text().strip() or "0")
+            except (OSError, ValueError):
+                pid = 0
+            if pid and pid != os.getpid() and _alive(pid):
+                raise RunFolderBusyError(
+                    f"{folder} is being written by another gyro-fmu run (process {pid}): wait "
+                    "for it, or give another --out") from None
+            lock.unlink(missing_ok=True)  # a dead run's lock
+    else:
+        raise RunFolderBusyError(f"cannot take the lock {lock}: give another --out")
+    try:
+        os.write(fd, str(os.getpid()).encode())
+        os.close(fd)
+        yield
+    finally:
+        lock.unlink(missing_ok=True)
+
+
+def results_record(results: Path, run_id: str, rows: int) -> dict:
+    """What summary.json says of the results it belongs to."""
+    return {"file": results.name, "run_id": run_id, "rows": rows,
+            "sha256": file_digest(results)}
+
+
+def check_pair(summary: dict, results: Path) -> None:
+    """Refuse a results.csv that is not the one summary.json was written with."""
+    record = summary.get("results")
+    if not isinstance(record, dict) or "sha256" not in record:
+        raise MismatchedOutputsError(
+            f"{results.parent / 'summary.json'} names no results (written before gyro_fmu "
+            "0.3.0, or damaged): rerun the scenario")
+    if not results.is_file():
+        raise MismatchedOutputsError(f"{results} is missing: the run did not finish writing; "
+                                     "rerun the scenario")
+    if file_digest(results) != record["sha256"]:
+        raise MismatchedOutputsError(
+            f"{results} is not the results.csv of run {record.get('run_id')} that "
+            f"summary.json describes ({record.get('rows')} rows): they belong to different "
+            "runs, or one was changed; rerun the scenario")
+
+
+def write_json(path: Path, data: dict) -> Path:
+    return atomic_write(path, lambda p: p.write_text(json.dumps(data, indent=2)))
