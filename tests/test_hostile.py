@@ -276,6 +276,8 @@ def test_inputs_that_ran_to_a_wrong_number_with_exit_0_are_refused(tmp_path, cap
         SweepSpec(model, n=2, stop_time=0.004, deadline=1.0)
     with pytest.raises(ParameterError, match="must be > 0 and at most the stop time"):
         SweepSpec(model, n=2, stop_time=0.004, deadline=-0.001)
+    with pytest.raises(ParameterError, match=r"noise seeds 2147483643 \.\. 2147483652"):
+        SweepSpec(model, n=10, noise_seed=2**31 - 5)  # one seed per gyro: past the Integer
 
 
 def test_careless_inputs_get_one_line_and_exit_2_not_a_traceback(tmp_path, capsys):

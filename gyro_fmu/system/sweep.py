@@ -45,6 +45,7 @@ import numpy as np
 
 from ..estimation.metrics import ESTIMATED, convergence_time, tolerance
 from ..model.drive import TwoToneDrive
+from ..model.interfaces import SEED_MAX
 from ..model.parameters import PARAMETER_NAMES, ParameterError, preset
 from .lot_bound import bound_figures, curve_indices
 from .scenario import Scenario, scenario
@@ -136,6 +137,11 @@ class SweepSpec:
         if self.observer_tuning not in OBSERVER_TUNINGS:
             raise ParameterError(f"observer_tuning must be one of {OBSERVER_TUNINGS}, not "
                                  f"{self.observer_tuning!r}")
+        if not 0 <= self.noise_seed <= SEED_MAX - (self.n - 1):
+            raise ParameterError(
+                f"noise seeds {self.noise_seed} .. {self.noise_seed + self.n - 1} (one per "
+                f"gyro) leave [0, {SEED_MAX}], the range of GyroPlant.fmu's seed: give "
+                f"--seed <= {SEED_MAX - (self.n - 1)}")
         if self.deadline is not None and not (
                 math.isfinite(self.deadline) and 0.0 < self.deadline <= self.stop_time):
             # a deadline past the stop time was judged at the last sample ("100 % within
