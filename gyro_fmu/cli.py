@@ -108,6 +108,7 @@ def main(argv: list[str] | None = None) -> int:
     remedy, no traceback unless --debug; 130 Ctrl-C, after the work so far is written."""
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv  # anywhere on the line, before or after the command
+    _terminate_as_interrupt()
     try:  # the imports behind the parser take a second: Ctrl-C there is an interrupt too
         args = parser().parse_args([a for a in argv if a != "--debug"])
         from .model.parameters import UnstablePlantWarning
@@ -125,6 +126,21 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print(f"gyro-fmu: error: {error_line(exc)}", file=sys.stderr)
         return 2
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt("terminated (SIGTERM)")
+
+
+def _terminate_as_interrupt() -> None:
+    """SIGTERM (kill, a CI timeout, a job scheduler) is handled as Ctrl-C: the work so far
+    is written and the unpacked FMU folders are removed (the default would end the process
+    with nothing cleaned up)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _terminate)
 
 
 def error_line(exc: BaseException) -> str:

@@ -355,3 +355,51 @@ def test_outputs_are_whole_and_known_to_belong_together(tmp_path, capsys):
         holder.wait()
     assert main(["run", "--stop-time", "0.0002", "--no-figures", "--out", str(b)]) == 0
     assert not (b / LOCK).exists()  # the dead run's lock was taken over, then released
+
+
+def test_sigterm_is_handled_like_ctrl_c_and_leaves_no_unpacked_fmus(tmp_path):
+    """0.2.0 died on SIGTERM with nothing written and 25 MB of unpacked FMUs left in
+    TMPDIR. Now the run stops between chunks, writes what was simulated, exits 130 and
+    removes its folders; folders a killed run left are swept by the next run."""
+    import subprocess
+    import sys
+    import time
+
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    dead = tmp / "gyro_fmu_999999999_GyroPlant_x"  # a killed run's folder (no such pid)
+    dead.mkdir()
+    env = {**os.environ, "TMPDIR": str(tmp)}
+    out = tmp_path / "run"
+    proc = subprocess.Popen([sys.executable, "-m", "gyro_fmu.cli", "run", "--stop-time", "1",
+                             "--no-figures", "--out", str(out)], env=env, cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not list(tmp.glob(f"gyro_fmu_{proc.pid}_GyroObserver_*")):  # stepping soon
+        assert time.monotonic() < deadline and proc.poll() is None, proc.communicate()
+        time.sleep(0.2)
+    time.sleep(1.5)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "co-simulation interrupted at t = " in err and "wrote what was simulated" in err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["interrupted"]["at_s"] > 0
+    assert not dead.exists()
+    assert not list(tmp.glob(f"gyro_fmu_{proc.pid}_*"))
+
+
+def test_the_master_does_not_unpack_an_archive_that_climbs_out(tmp_path):
+    import shutil
+    import zipfile
+
+    from gyro_fmu.cosim.master import Component, run_cosimulation
+    from gyro_fmu.fmu.build import prebuilt_fmu
+
+    fmu = tmp_path / "RateProfile.fmu"
+    shutil.copy(prebuilt_fmu("RateProfile"), fmu)
+    with zipfile.ZipFile(fmu, "a") as z:
+        z.writestr("../../escaped.txt", "x")
+    with pytest.raises(CoSimulationError, match="would be unpacked outside the FMU's folder"):
+        run_cosimulation([Component("rate", fmu)], [], 1e-4, 5e-6)
+    assert not (tmp_path.parent / "escaped.txt").exists()

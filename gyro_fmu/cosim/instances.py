@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import os
+import shutil
 import sys
 import tempfile
+import zipfile
 from collections.abc import Iterable
 from ctypes import c_char_p, c_void_p
 from dataclasses import dataclass, field
@@ -21,6 +24,7 @@ from fmpy.fmi2 import (  # type: ignore[attr-defined]
     free,
 )
 
+from .archives import archive_problem
 from .system import Component, CoSimulationError
 
 
@@ -93,7 +97,11 @@ _UNPACKED: dict[tuple[str, int, int], tempfile.TemporaryDirectory] = {}
 
 
 def unpacked(path: Path) -> str:
-    """The directory FMU `path` is unpacked in, unpacking it once per process and version."""
+    """The directory FMU `path` is unpacked in, unpacking it once per process and version.
+    The archive is checked first (archives.archive_problem). Folders are named after this
+    process, so the ones a killed process left are removed by the next one."""
+    if not _UNPACKED:
+        sweep_dead_folders()
     stat = path.stat()
     key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
     folder = _UNPACKED.get(key)
@@ -101,10 +109,40 @@ def unpacked(path: Path) -> str:
         for old in [k for k in _UNPACKED  # a rebuilt archive, or one gone (a build's)
                     if k[0] == key[0] or not Path(k[0]).exists()]:
             _UNPACKED.pop(old).cleanup()
-        folder = tempfile.TemporaryDirectory(prefix=f"gyro_fmu_{path.stem}_")
+        try:
+            with zipfile.ZipFile(path) as z:
+                problem = archive_problem(z)
+        except (zipfile.BadZipFile, OSError) as exc:
+            problem = f"not a readable archive ({exc})"
+        if problem:
+            raise CoSimulationError(f"{path} is not unpacked: {problem}; the FMU is damaged "
+                                    "or not trustworthy")
+        folder = tempfile.TemporaryDirectory(prefix=f"{FOLDER_PREFIX}{os.getpid()}_{path.stem}_")
         extract(str(path), unzipdir=folder.name)
         _UNPACKED[key] = folder
     return folder.name
+
+
+#: Unpacked folders are <tmp>/gyro_fmu_<pid>_<model>_<random>.
+FOLDER_PREFIX = "gyro_fmu_"
+
+
+def sweep_dead_folders() -> list[Path]:
+    """Remove the unpacked folders of processes that are gone (killed: no clean-up ran)."""
+    removed = []
+    for folder in Path(tempfile.gettempdir()).glob(f"{FOLDER_PREFIX}*_*"):
+        pid = folder.name[len(FOLDER_PREFIX):].split("_", 1)[0]
+        if not pid.isdigit() or not folder.is_dir():
+            continue
+        try:
+            os.kill(int(pid), 0)
+            continue  # alive (or not ours to signal)
+        except ProcessLookupError:
+            shutil.rmtree(folder, ignore_errors=True)
+            removed.append(folder)
+        except (PermissionError, OverflowError):
+            continue
+    return removed
 
 
 def instantiate(comp: Component, callbacks: fmi2CallbackFunctions) -> Instance:

@@ -154,22 +154,29 @@ _CHUNK = 2000
 
 @contextmanager
 def _interrupt_between_chunks() -> Iterator[Callable[[], bool]]:
-    """Record Ctrl-C instead of raising it, so that it stops the loop between chunks.
+    """Record Ctrl-C (and SIGTERM where the caller handles it in Python, as the CLI does)
+    instead of raising it, so that it stops the loop between chunks.
 
     Raised at once, KeyboardInterrupt would land inside an FMU's Python callback,
-    where pythonfmu turns it into fmi2Fatal. Only in the main thread, and only while
-    Python's default handler is installed; elsewhere nothing changes.
+    where pythonfmu turns it into fmi2Fatal. Only in the main thread, and only for a
+    signal whose handler is Python's (a background job's SIGINT is ignored: it stays so).
     """
-    if (threading.current_thread() is not threading.main_thread()
-            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
+    if threading.current_thread() is not threading.main_thread():
         yield lambda: False
         return
     caught: list[int] = []
-    signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    replaced = {}
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        handler = signal.getsignal(signum)
+        if (handler is signal.default_int_handler if signum == signal.SIGINT
+                else callable(handler)):  # Python's Ctrl-C, or the CLI's SIGTERM handler
+            replaced[signum] = handler
+            signal.signal(signum, lambda n, frame: caught.append(n))
     try:
         yield lambda: bool(caught)
     finally:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
+        for signum, handler in replaced.items():
+            signal.signal(signum, handler)
 
 
 #: fmi2Status codes above fmi2Warning, as the standard names them.

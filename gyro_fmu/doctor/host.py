@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from xml.etree import ElementTree
 
+from ..cosim.archives import archive_problem
+from ..errors import GyroFmuError
 from ..fmu.build import load_slave
 from .environment import fmi2_header_dir
 
@@ -102,9 +104,17 @@ class FmuInfo:
     outputs: tuple[str, ...]
 
 
+class DoctorArchiveError(GyroFmuError):
+    """An FMU archive the doctor will not unpack."""
+
+
 def unpack_fmu(fmu: Path, dest: Path) -> FmuInfo:
     """Unzip an FMU and read the identifiers the C host needs."""
     with zipfile.ZipFile(fmu) as z:
+        problem = archive_problem(z)
+        if problem:
+            raise DoctorArchiveError(f"{fmu} is not unpacked: {problem}; the FMU is damaged "
+                                     "or not trustworthy")
         z.extractall(dest)
     root = ElementTree.parse(dest / "modelDescription.xml").getroot()
     cs = root.find("CoSimulation")

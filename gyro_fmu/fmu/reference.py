@@ -23,6 +23,7 @@ import numpy as np
 from fmpy import read_model_description, simulate_fmu
 from fmpy.util import validate_signal, write_csv
 
+from ..cosim.archives import archive_problem
 from ..errors import GyroFmuError
 from .fmpy_logger import rearm_default_logger
 
@@ -202,31 +203,6 @@ def check_coverage(table: np.ndarray, what: str, names: list[str],
     if problems:
         raise ReferenceResultError(f"reference {what} does not cover the default run: "
                                    + "; ".join(problems) + ": rebuild the FMU")
-
-
-#: An FMU archive is untrusted data: limits checked before anything is unpacked.
-MAX_MEMBERS = 10_000
-MAX_INFLATED = 1 << 30  # bytes
-
-
-def archive_problem(z: zipfile.ZipFile) -> str | None:
-    """Why this archive is not opened (None when fine): too many members or too many
-    inflated bytes (a zip bomb fills the disk when unpacked), a member whose name leaves
-    the folder it is unpacked into (absolute, ../, a drive), or a symbolic link."""
-    infos = z.infolist()
-    if len(infos) > MAX_MEMBERS:
-        return f"{len(infos)} members, more than the {MAX_MEMBERS} an FMU may have here"
-    inflated = sum(i.file_size for i in infos)
-    if inflated > MAX_INFLATED:
-        return (f"its members inflate to {inflated / 2**30:.1f} GiB, more than "
-                f"{MAX_INFLATED >> 30} GiB")
-    for i in infos:
-        name = i.filename.replace("\\", "/")
-        if name.startswith("/") or ".." in name.split("/") or (len(name) > 1 and name[1] == ":"):
-            return f"member {i.filename!r} would be unpacked outside the FMU's folder"
-        if (i.external_attr >> 16) & 0o170000 == 0o120000:
-            return f"member {i.filename!r} is a symbolic link"
-    return None
 
 
 def validate_reference(fmu: Path, dy: float = 1e-6, dx: int = 1) -> list[SignalCheck]:
