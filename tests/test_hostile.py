@@ -298,6 +298,7 @@ def test_careless_inputs_get_one_line_and_exit_2_not_a_traceback(tmp_path, capsy
         ("selfcal", "--drift", "0", "0"): "damping factor 0.0 must be a finite number > 0",
         ("run", "--drive", "nosuch=1"): "unknown --drive name(s) ['nosuch']",
         ("sweep", "-n", "2", "--scheduler", "tcp://:::1"): "cannot reach the Dask scheduler",
+        ("design-drive", "--out", "/dev/full"): "--out /dev/full is not a file",
     }
     for argv, why in cases.items():
         try:

@@ -258,8 +258,22 @@ def _cmd_design_drive(args: argparse.Namespace) -> int:
     print(f"proposal: --drive f1={p.f1:g} --drive A1={p.A1:.4g} --drive f2={p.f2:g} "
           f"--drive A2={p.A2:.4g}")
     out = Path(args.out)
+    if out.exists() and not out.is_file():  # /dev/full, a folder: not a figure's place
+        raise ParameterError(f"--out {out} is not a file (a folder or a device): give the "
+                             "path of a .png to write")
     out.parent.mkdir(parents=True, exist_ok=True)
-    print(f"wrote {heat_map(d, out)}")
+    from .outputs import atomic_write
+
+    def write(temp: Path) -> None:  # whole or not at all (0.2.0 "wrote /dev/full")
+        png = temp.with_suffix(".png")  # matplotlib takes the format from the suffix
+        try:
+            heat_map(d, png)
+            png.replace(temp)
+        finally:
+            png.unlink(missing_ok=True)
+
+    atomic_write(out, write)
+    print(f"wrote {out}")
     return 0
 
 
