@@ -110,5 +110,8 @@ def core() -> ctypes.CDLL:
     return lib
 
 
-def message_buffer() -> ctypes.Array:
-    return ctypes.create_string_buffer(4096)
+def core_text(name: str, *args: object) -> str | None:
+    """Call a core check `name(*args, msg, n)` (it returns non-zero with a message when it
+    finds something); its message, or None when it returns 0."""
+    msg = ctypes.create_string_buffer(4096)
+    return msg.value.decode() if getattr(core(), name)(*args, msg, len(msg)) else None

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..core.library import TwoToneDrive as CDrive
 from ..core.library import core as _core
-from ..core.library import message_buffer
+from ..core.library import core_text
 
 
 @dataclass(frozen=True)
@@ -46,15 +46,11 @@ class TwoToneDrive:
     def problems(self) -> list[str]:
         """Settings that make the drive useless (empty when fine): the core's check, as
         TwoToneDrive.fmu makes it."""
-        msg = message_buffer()
-        if _core().gyro_drive_problems(self._c, msg, len(msg)):
-            return [msg.value.decode()]
-        return []
+        problem = core_text("gyro_drive_problems", self._c)
+        return [problem] if problem else []
 
     def sampling_problem(self, step: float) -> str | None:
         """Why a communication step of `step` s cannot carry this drive (a tone at or above
         its Nyquist frequency aliases), None if it can: the core's check, which
         TwoToneDrive.fmu logs as a warning."""
-        msg = message_buffer()
-        return (msg.value.decode() if _core().gyro_drive_nyquist_problem(self._c, step, msg,
-                                                                        len(msg)) else None)
+        return core_text("gyro_drive_nyquist_problem", self._c, step)

@@ -198,24 +198,23 @@ def check_parameters(p: GyroParameters) -> list[str]:
     checks and their words are the C core's (gyro_params_problems), the ones GyroPlant.fmu
     refuses with at initialization.
     """
-    from ..core.library import core, message_buffer
+    from ..core.library import core_text
 
-    msg = message_buffer()
-    return [msg.value.decode()] if core().gyro_params_problems(_c_params(p), msg,
-                                                               len(msg)) else []
+    problem = core_text("gyro_params_problems", _c_params(p))
+    return [problem] if problem else []
 
 
 def validate_for_plant(p: GyroParameters) -> GyroParameters:
     """Raise ParameterError if unusable; warn with the growth rate if a mode grows (the
     core's gyro_params_warning, GyroPlant.fmu's warning at initialization)."""
-    from ..core.library import core, message_buffer
+    from ..core.library import core_text
 
     problems = check_parameters(p)
     if problems:
         raise ParameterError("; ".join(problems))
-    msg = message_buffer()
-    if core().gyro_params_warning(_c_params(p), msg, len(msg)):
-        warnings.warn(msg.value.decode(), UnstablePlantWarning, stacklevel=2)
+    warning = core_text("gyro_params_warning", _c_params(p))
+    if warning:
+        warnings.warn(warning, UnstablePlantWarning, stacklevel=2)
     return p
 
 

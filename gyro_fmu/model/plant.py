@@ -14,7 +14,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from ..core.library import Params, PickoffNoise, State, core, message_buffer
+from ..core.library import Params, PickoffNoise, State, core, core_text
 from .parameters import GyroParameters, ParameterError, validate_for_plant
 
 #: Names of the plant's measured outputs, in output order.
@@ -117,10 +117,10 @@ class GyroPlantModel:
         if len(raw) != len(self._buf.raw):
             raise ValueError(f"plant state of {len(raw)} bytes, {len(self._buf.raw)} expected")
         candidate = ctypes.create_string_buffer(raw, len(raw))
-        msg = message_buffer()
-        if self._lib.gyro_plant_restored_problem(candidate, ctypes.byref(self._c_params),
-                                                 ctypes.byref(self._c_noise), msg, len(msg)):
-            raise ValueError(msg.value.decode())
+        problem = core_text("gyro_plant_restored_problem", candidate,
+                            ctypes.byref(self._c_params), ctypes.byref(self._c_noise))
+        if problem:
+            raise ValueError(problem)
         ctypes.memmove(self._buf, candidate, len(raw))
 
 

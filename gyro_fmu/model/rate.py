@@ -9,7 +9,7 @@ import numpy as np
 
 from ..core.library import RateProfile as CRate
 from ..core.library import core as _core
-from ..core.library import message_buffer
+from ..core.library import core_text
 
 
 class RateKind(IntEnum):
@@ -59,15 +59,12 @@ class RateProfile:
         """Why a communication step of `step` s cannot carry this rate (a sine at or above
         its Nyquist frequency aliases), None if it can: the core's check, which
         RateProfile.fmu logs as a warning."""
-        msg = message_buffer()
-        return (msg.value.decode() if _core().gyro_rate_nyquist_problem(self._c, step, msg,
-                                                                       len(msg)) else None)
+        return core_text("gyro_rate_nyquist_problem", self._c, step)
 
     def problems(self) -> list[str]:
         """Settings RateProfile.fmu refuses (empty when fine): the core's check."""
-        msg = message_buffer()
-        return [msg.value.decode()] if _core().gyro_rate_problems(self._c, msg,
-                                                                  len(msg)) else []
+        problem = core_text("gyro_rate_problems", self._c)
+        return [problem] if problem else []
 
 
     @classmethod
