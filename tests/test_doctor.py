@@ -132,17 +132,16 @@ def test_no_compiler_skips_cleanly(models_dir: Path, monkeypatch: pytest.MonkeyP
 def test_a_non_python_host_loads_the_kernels_the_fmu_ships(models_dir: Path,
                                                             tmp_path: Path) -> None:
     """The C host runs the FMU's own copy of gyro_fmu, unpacked afresh: numba must load
-    the observer's compiled kernels from the FMU (NUMBA_DEBUG_CACHE shows from where)
-    instead of compiling them (13.7 s per process before they were shipped)."""
-    report = doc.doctor(models_dir / "GyroObserver.fmu", compile_host=False)
+    the self-calibration's compiled kernels from the FMU (NUMBA_DEBUG_CACHE shows from
+    where) instead of compiling them (13.7 s per process before they were shipped)."""
+    report = doc.doctor(models_dir / "GyroLoops.fmu", compile_host=False)
     exe, log = host.compile_host(tmp_path, env.find_compiler())
     assert exe is not None, log
-    info = host.unpack_fmu(models_dir / "GyroObserver.fmu", tmp_path / "fmu")
+    info = host.unpack_fmu(models_dir / "GyroLoops.fmu", tmp_path / "fmu")
     run = host.run_host(exe, info, {**report.environment(), "NUMBA_DEBUG_CACHE": "1"},
                        "kernels", steps=5, step=5e-6)
     assert run.reached_end, run.stdout + run.stderr
-    shipped = str(info.resources / "gyro_fmu" / "estimation" / "__pycache__"
-                  / "observer._ekf_step")
+    shipped = str(info.resources / "gyro_fmu" / "selfcal" / "__pycache__" / "loops.")
     loaded = [line for line in run.stdout.splitlines() if "data loaded from" in line]
     assert any(shipped in line for line in loaded), run.stdout[-3000:]
     assert not any("data saved to" in line for line in run.stdout.splitlines())
@@ -191,8 +190,8 @@ def test_every_fmu_ships_every_kernel(models_dir: Path) -> None:
         with zipfile.ZipFile(models_dir / f"{name}.fmu") as z:
             caches[name] = {n for n in z.namelist() if n.endswith((".nbi", ".nbc"))}
     first = caches[FMU_NAMES[0]]
-    assert any("observer" in n and "_ekf_step" in n for n in first), sorted(first)
-    assert any("loops" in n for n in first)
+    assert any("loops" in n for n in first), sorted(first)
+    assert any("resonator" in n for n in first), sorted(first)
     for name, names in caches.items():
         assert names == first, (name, sorted(first ^ names)[:5])
 

@@ -7,6 +7,9 @@ the native FMUs in test_ssp.py and test_ecos.py.)
 Tolerance against the reference: 1e-12 of each output's range. The reference was made by
 fmpy.simulate_fmu, whose input table lookup gives inputs a few ulps off the table's
 values (5e-15 of the range measured); the hosts here set the table's values exactly.
+The observer amplifies such differences (an adaptive filter: mixing weights are
+exponentials of likelihoods): inputs scaled by 1 + 2 ulp move its outputs by 1.8e-10 of
+their range (measured in process on the reference inputs), so its tolerance is 1e-9.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from gyro_fmu.fmu.reference import LS_REF_DIR, parse_csv
 
 HOST_C = Path(__file__).resolve().parents[1] / "gyro_fmu" / "doctor" / "chost" / "fmu_host.c"
 TOLERANCE = 1e-12
+TOLERANCES = {"GyroObserver": 1e-9}
 
 
 def _reference(fmu: Path, name: str) -> tuple[np.ndarray, np.ndarray | None]:
@@ -101,7 +105,7 @@ def test_a_c_host_with_an_empty_environment_reproduces_the_reference(
     md = read_model_description(str(folder / f"{name}.fmu"))
     got = _parse(proc.stdout, out, {v.name: v.valueReference for v in md.modelVariables})
     assert got.shape == (len(out) - 1, len(out.dtype.names) - 1)
-    assert _worst(got, out) <= TOLERANCE
+    assert _worst(got, out) <= TOLERANCES.get(name, TOLERANCE)
 
 
 def _windows_tools() -> tuple[str, str] | None:
@@ -141,4 +145,4 @@ def test_the_win64_dll_under_wine_reproduces_the_reference(
     assert got.shape == (len(out) - 1, len(out.dtype.names) - 1)
     worst = _worst(got, out)
     print(f"{name}: win64 under wine, max |difference| / range = {worst:.3g}")
-    assert worst <= TOLERANCE
+    assert worst <= TOLERANCES.get(name, TOLERANCE)

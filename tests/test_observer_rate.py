@@ -9,6 +9,7 @@ with margin on these seeds; docs/observer-rate-model.md has the full tables.
 
 from __future__ import annotations
 
+import ctypes
 import math
 
 import numpy as np
@@ -16,13 +17,14 @@ import pytest
 
 from gyro_fmu.estimation import observer_rate as rate
 from gyro_fmu.estimation.observer import GyroStateObserver, ObserverTuning
-from gyro_fmu.model.parameters import GyroParameters
+from gyro_fmu.model.parameters import GyroParameters, preset
 from gyro_fmu.model.plant import GyroPlantModel
 from gyro_fmu.model.rate import RateKind, RateProfile
 from gyro_fmu.system.scenario import absolute_noise, scenario
 
 FACTORS = {"kxx": 1.07, "kyy": 0.94, "kxy": 1.25, "dxx": 0.85, "dyy": 1.15, "dxy": 0.9,
            "m": 1.03}
+_DP = ctypes.POINTER(ctypes.c_double)
 H = 5e-6
 
 
@@ -119,38 +121,58 @@ def test_a_wandering_rate_is_followed_and_its_sigma_stays_honest():
     assert math.sqrt(np.mean(((om[w] - truth[w]) / sig[w]) ** 2)) < 2.0
 
 
+def _core_filters(xs, Ps, mu, Pi):
+    """An adaptive observer whose four filters, probabilities and Pi are these."""
+    obs = GyroStateObserver(preset("park-horowitz"), tuning=ObserverTuning())
+    obs.xs[:], obs.Ps[:], obs.mu[:] = xs, Ps, mu
+    np.ctypeslib.as_array(obs._c.Pi)[:4, :4] = Pi
+    return obs
+
+
 def test_mixture_and_mixing_equal_their_definitions():
-    """combine: mean and covariance of a Gaussian mixture (with the spread of the means);
-    mix: each filter restarted from the mixture weighted by mu_i Pi[i, j] / c_j; identical
-    filters mix to themselves."""
+    """The core's combine: mean and covariance of a Gaussian mixture (with the spread of
+    the means); mix: each filter restarted from the mixture weighted by mu_i Pi[i, j] /
+    c_j; identical filters mix to themselves."""
     rng = np.random.default_rng(0)
-    M, n = 3, 5
+    M, n = 4, 14
     xs = rng.standard_normal((M, n))
     A = rng.standard_normal((M, n, n))
     Ps = np.einsum("mij,mkj->mik", A, A)
-    w = np.array([0.2, 0.5, 0.3])
-    x, P = np.empty(n), np.empty((n, n))
-    rate.combine(xs, Ps, w, x, P)
+    w = np.array([0.2, 0.4, 0.3, 0.1])
+    Pi = np.array([[0.9, 0.05, 0.05, 0.0], [0.1, 0.8, 0.05, 0.05], [0.0, 0.3, 0.6, 0.1],
+                   [0.25, 0.25, 0.25, 0.25]])
+    mu = np.array([0.5, 0.3, 0.1, 0.1])
+    obs = _core_filters(xs, Ps, mu, Pi)
+    x, P = np.empty(n), np.zeros((14, 14))
+    obs._lib.gyro_observer_combine(obs._ref, w.ctypes.data_as(_DP), x.ctypes.data_as(_DP),
+                                   P.ctypes.data_as(_DP))
     mean = w @ xs
     cov = sum(w[j] * (Ps[j] + np.outer(xs[j] - mean, xs[j] - mean)) for j in range(M))
-    np.testing.assert_allclose(x, mean, rtol=1e-14)
-    np.testing.assert_allclose(P, cov, rtol=1e-13)
-    Pi = np.array([[0.9, 0.05, 0.05], [0.1, 0.8, 0.1], [0.0, 0.3, 0.7]])
-    mu = np.array([0.6, 0.3, 0.1])
-    c = np.empty(M)
-    x2, P2 = xs.copy(), Ps.copy()
-    rate.mix(x2, P2, mu, Pi, c)
-    np.testing.assert_allclose(c, Pi.T @ mu, rtol=1e-15)
+    np.testing.assert_allclose(x, mean, rtol=1e-13)
+    np.testing.assert_allclose(P, cov, rtol=1e-12, atol=1e-13)
+    obs._lib.gyro_observer_mix(obs._ref)
+    c = Pi.T @ mu
+    np.testing.assert_allclose(obs.c, c, rtol=1e-15)
     for j in range(M):
         wj = Pi[:, j] * mu / c[j]
         m = wj @ xs
-        np.testing.assert_allclose(x2[j], m, rtol=1e-13)
+        np.testing.assert_allclose(obs.xs[j], m, rtol=1e-12, atol=1e-14)
         cj = sum(wj[i] * (Ps[i] + np.outer(xs[i] - m, xs[i] - m)) for i in range(M))
-        np.testing.assert_allclose(P2[j], cj, rtol=1e-12)
-    same_x, same_P = np.tile(xs[0], (M, 1)), np.tile(Ps[0], (M, 1, 1))
-    rate.mix(same_x, same_P, mu, Pi, c)
-    np.testing.assert_allclose(same_x, np.tile(xs[0], (M, 1)), rtol=1e-14)
-    np.testing.assert_allclose(same_P, np.tile(Ps[0], (M, 1, 1)), rtol=1e-13)
+        np.testing.assert_allclose(obs.Ps[j], cj, rtol=1e-11, atol=1e-13)
+    same = _core_filters(np.tile(xs[0], (M, 1)), np.tile(Ps[0], (M, 1, 1)), mu, Pi)
+    same._lib.gyro_observer_mix(same._ref)
+    np.testing.assert_allclose(same.xs, np.tile(xs[0], (M, 1)), rtol=1e-14)
+    np.testing.assert_allclose(same.Ps, np.tile(Ps[0], (M, 1, 1)), rtol=1e-13)
+
+
+#: The rough and slow models of the adaptive set follow rate_bandwidth divided by this.
+SLOW_FRACTION = 10.0
+
+
+def intensity(order: int, span: float, bandwidth: float) -> float:
+    """The sizing rule of observer_rate's docstring, written independently of the core."""
+    w = 2.0 * math.pi * bandwidth
+    return span * span * w ** (2 * order - 1) / (2.0 * math.pi)
 
 
 def test_the_rate_processes_and_their_switching():
@@ -161,15 +183,15 @@ def test_the_rate_processes_and_their_switching():
     assert Fr.shape == Qr.shape == (4, 3, 3)
     np.testing.assert_array_equal(Fr[0], np.diag([1.0, 0.0, 0.0]))  # constant
     assert not Qr[0].any()
-    slow = tun.rate_bandwidth / rate.SLOW_FRACTION
+    slow = tun.rate_bandwidth / SLOW_FRACTION
     np.testing.assert_array_equal(Fr[1], np.diag([1.0, 0.0, 0.0]))  # rough: random walk
-    assert Qr[1][0, 0] == pytest.approx(rate.intensity(1, tun.rate_span, slow) * H, rel=1e-14)
+    assert Qr[1][0, 0] == pytest.approx(intensity(1, tun.rate_span, slow) * H, rel=1e-14)
     assert Qr[1][0, 0] == pytest.approx(tun.rate_span**2 * slow * H, rel=1e-14)
     np.testing.assert_allclose(Fr[2], [[1, H, 0], [0, 1, 0], [0, 0, 0]])  # slow: order 2
-    q2 = rate.intensity(2, tun.rate_span, slow)
+    q2 = intensity(2, tun.rate_span, slow)
     np.testing.assert_allclose(Qr[2][:2, :2], q2 * np.array([[H**3 / 3, H**2 / 2],
                                                             [H**2 / 2, H]]), rtol=1e-14)
-    q3 = rate.intensity(3, tun.rate_span, tun.rate_bandwidth)
+    q3 = intensity(3, tun.rate_span, tun.rate_bandwidth)
     assert Qr[3][2, 2] == pytest.approx(q3 * H, rel=1e-14)
     np.testing.assert_allclose(Pi.sum(axis=1), 1.0, rtol=1e-15)
     assert 1.0 - Pi[0, 0] == pytest.approx(H / tun.rate_dwell, rel=1e-5)

@@ -302,6 +302,11 @@ Status inst_do_step(Instance *inst, double t, double h) {
         snprintf(why, sizeof why, "the step from t=%.9g s over %g s failed: %s", t, h, msg);
         return fail(inst, why);
     }
+    if (hook == GYRO_HOOK_DISCARD) { /* refused: time stays at t, the instance goes on */
+        inst_logf(inst, ST_DISCARD, "the step from t=%.9g s over %g s was refused: %s", t, h,
+                  msg);
+        return ST_DISCARD;
+    }
     /* every Real output finite, or the instance fails naming the outputs and inputs */
     int all_finite = 1;
     for (size_t i = 0; i < m->n_variables && all_finite; i++) {

@@ -28,8 +28,15 @@ typedef struct {
 
 #define GYRO_MESSAGE_SIZE 1024
 
-/* Status of a model hook: OK, a warning to log (msg), or an error (msg). */
-typedef enum { GYRO_HOOK_OK = 0, GYRO_HOOK_WARNING = 1, GYRO_HOOK_ERROR = 3 } GyroHookStatus;
+/* Status of a model hook: OK, a warning to log (msg), a refused step (msg: the step did
+ * not happen, fmi2Discard / fmi3Discard, the instance stays usable: a smaller step, or a
+ * restored state, goes on), or an error (msg: the instance fails). */
+typedef enum {
+    GYRO_HOOK_OK = 0,
+    GYRO_HOOK_WARNING = 1,
+    GYRO_HOOK_DISCARD = 2,
+    GYRO_HOOK_ERROR = 3
+} GyroHookStatus;
 
 typedef struct {
     const char *identifier;   /* modelIdentifier */
@@ -41,7 +48,7 @@ typedef struct {
      * the start time. msg says why on error (then the instance cannot step). */
     GyroHookStatus (*setup)(void *data, double start_time, char *msg, size_t n);
     /* Advance from t to t + h (h > 0, finite) with the inputs held, set the outputs; a
-     * warning (msg) still advances. */
+     * warning (msg) still advances; a discard (msg) does not, time stays at t. */
     GyroHookStatus (*step)(void *data, double t, double h, char *msg, size_t n);
     /* A state deserialized from bytes (data from outside), in step mode: check it against
      * the variables it holds and drop anything cached; NULL when nothing to check. */

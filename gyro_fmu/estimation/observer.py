@@ -5,74 +5,50 @@ on the augmented state of eq. 5, X = [x, x', y, y', Omega_z, kxx, kyy, kxy, dxx,
 (with 1/m in place of m), from the measured pair of eqs. 6 and 9 / claim 4: positions
 (x, y) or velocities (x', y'). Each step corrects with the measurement at t (eq. 8, gain
 from the covariance), then predicts to t + h with ux, uy and Omega_z held, exactly as
-the plant steps (eq. 5; kernels in observer_kernels). Units: k's 1/s^2, d's 1/s, m kg,
-Omega_z rad/s, forces N. Why it is built this way, with measurements:
-docs/observer-design.md; why it stays sound at any step, start and signal scale (Joseph
-update, signal-scaled priors, the divergence monitor of observer_monitor, the status
-and the named errors): docs/observer-soundness.md.
+the plant steps (eq. 5). Every per-step computation is the C core's
+(fmu_src/core/gyro_observer.c, the one GyroObserver.fmu runs); this class holds its
+struct and shows its arrays as numpy views. Units: k's 1/s^2, d's 1/s, m kg, Omega_z
+rad/s, forces N. Why it is built this way, with measurements: docs/observer-design.md;
+why it stays sound at any step, start and signal scale (Joseph update, signal-scaled
+priors, the divergence monitor, the status and the named errors):
+docs/observer-soundness.md.
 """
 
 from __future__ import annotations
 
-import math
+import ctypes
 from dataclasses import asdict
 
 import numpy as np
-from numba import njit
 
+from ..core import observer as cobs
+from ..core.library import Params
 from ..model.measurement import UNKNOWNS, MeasuredPair
-from ..model.parameters import GyroParameters, check_parameters
-from . import observer_kernels as kern
+from ..model.parameters import GyroParameters
 from . import observer_rate as rate
-from .observer_kernels import I_OM, I_PAR, KMAX, N_MON, N_PAR, NoiseModel, ObserverModel
-from .observer_monitor import (
-    MonitorLimits,
-    ObserverDivergedError,
-    ObserverStepError,
-    check,
-    limits,
-    lost_message,
-    step_too_coarse,
-    warning_message,
-)
+from .observer_monitor import ObserverDivergedError, ObserverStepError
 from .observer_tuning import ObserverTuning
 
 __all__ = ["GyroStateObserver", "ObserverDivergedError", "ObserverStepError", "ObserverTuning"]
 
 _STATE_VERSION = 3
-#: Auto prior of [x, vx, y, vy] started by the drive (plant at rest): this fraction of the
-#: static deflection (m); 10 % or more let the velocity-pair filter converge to Omega -5.
-PRIOR_FRACTION = 0.01
-#: ... started by a measurement above its noise (a plant not known at rest): its size.
-#: 1 % there made relative-noise runs overconfident (dyy error/sigma 3.4, 300 ms) since
-#: the innovation floor of R never saw a large early innovation.
-PRIOR_FRACTION_MEASURED = 1.0
+N_PAR = cobs.NPAR  #: kxx, kyy, kxy, dxx, dyy, dxy, b = 1/m
+I_PAR = cobs.IPAR  #: filter-state row of the first parameter
+I_OM = cobs.IOM  #: filter-state row of Omega_z
+N_MON = 16  #: numbers of the monitor in get_state() (core.observer.Monitor's fields)
 #: Outputs of output_row(): state estimate, UNKNOWNS, their 1-sigmas.
 N_OUTPUTS = 4 + 8 + 8
+_P = ctypes.POINTER(ctypes.c_double)
 
 
-@njit(cache=True)
-def _ekf_step(model, noise, lim, xs, Ps, c, mu, x, P, L, peak, nu2, mon, Fr, Qr, Pi, qpar,
-              ux, uy, z1, z2, h, pv, pk0, pk1):  # pragma: no cover
-    """step() in one compiled call: correct at t, predict to t + h, monitor (its verdict).
+def _ptr(a: np.ndarray):
+    return a.ctypes.data_as(_P)
 
-    xs, Ps, c, mu: the rate models' filters and probabilities (observer_rate); x, P their
-    combination. pv > 0: the auto prior starts here, after the correction (as predict()
-    starts it): variance pv on [x, vx, y, vy], running peaks at least pk0, pk1.
 
-    model and noise arrive as plain tuples (numba types those 0.6 us faster per call
-    than NamedTuples) and are given their field names here.
-    """
-    m = ObserverModel(*model)
-    rate.update(m, NoiseModel(*noise), xs, Ps, c, mu, x, P, peak, nu2, mon, z1, z2, h)
-    if pv > 0.0:
-        peak[0] = max(peak[0], pk0)
-        peak[1] = max(peak[1], pk1)
-        for i in range(4):  # on every filter; P is their mixture again after the predict
-            for j in range(xs.shape[0]):
-                Ps[j, i, i] += pv
-    rate.predict(m, xs, Ps, mu, c, Pi, x, P, Fr, Qr, qpar, peak, ux, uy, h)
-    return check(m, MonitorLimits(*lim), x, P, L, peak, mon)
+def c_tuning(tuning: ObserverTuning) -> cobs.Tuning:
+    """The core's GyroObserverTuning of an ObserverTuning."""
+    return cobs.Tuning(**{k: (int(v) if k in cobs.INTEGER_FIELDS else float(v))
+                          for k, v in asdict(tuning).items()})
 
 
 class GyroStateObserver:
@@ -101,235 +77,148 @@ class GyroStateObserver:
             raise ValueError(
                 f"initial={initial!r} must be a GyroParameters (e.g. parameters.preset(...))"
             )
-        problems = check_parameters(initial)
-        if initial.kyy <= 0.0 and not problems:
-            problems.append(f"kyy={initial.kyy} must be > 0")
-        if problems:
-            raise ValueError(
-                "initial parameter guess is unusable: " + "; ".join(problems)
-                + ". Give a physical guess (positive m, positive definite K)"
-            )
-        if not (isinstance(Omega_z_0, int | float) and math.isfinite(Omega_z_0)):
+        if not isinstance(Omega_z_0, int | float):
             raise ValueError(f"Omega_z_0={Omega_z_0!r} rad/s must be a finite number")
         tun = tuning if tuning is not None else ObserverTuning()
         if not isinstance(tun, ObserverTuning):
             raise ValueError(f"tuning={tun!r} must be an ObserverTuning or None")
+        self._c = cobs.Observer()
+        self._lib = cobs.observer_core()
+        self._msg = ctypes.create_string_buffer(2048)
+        guess = Params(*(float(getattr(initial, n)) for n, _ in Params._fields_))
+        if self._lib.gyro_observer_init(ctypes.byref(self._c), ctypes.byref(guess),
+                                        float(Omega_z_0), int(pair), ctypes.byref(c_tuning(tun)),
+                                        self._msg, len(self._msg)):
+            raise ValueError(self._msg.value.decode())
+        self._ref = ctypes.byref(self._c)
         self.tuning = tun
         self.measured_pair = pair
-        self.order = rate.rate_block_size(tun)
-        self.n = 4 + N_PAR + self.order
-        wx = math.sqrt(initial.kxx)
-        wy = math.sqrt(initial.kyy)
-        theta0 = np.array([initial.kxx, initial.kyy, initial.kxy, initial.dxx, initial.dyy,
-                           initial.dxy, 1.0 / initial.m])
-        d_scale = max(abs(initial.dxx), abs(initial.dyy), abs(initial.dxy), 1e-3)
-        kxy_scale = max(abs(initial.kxy), 1e-2 * math.sqrt(initial.kxx * initial.kyy))
-        scale = np.array([initial.kxx, initial.kyy, kxy_scale, d_scale, d_scale, d_scale,
-                          1.0 / initial.m])
-        self._build(wx, wy, theta0, scale)
-        xhat = np.zeros(self.n)
-        xhat[I_OM] = Omega_z_0
-        sig = np.zeros(self.n)
-        self._auto_prior = tun.sigma0_position <= 0.0 or tun.sigma0_velocity <= 0.0
-        if not self._auto_prior:
-            sig[[0, 2]] = tun.sigma0_position
-            sig[1] = tun.sigma0_velocity / wx
-            sig[3] = tun.sigma0_velocity / wy
-        sig[4:7] = tun.sigma0_k_rel * np.abs(theta0[:3]) / scale[:3]
-        sig[7:10] = tun.sigma0_d_rel
-        sig[10] = tun.sigma0_m_rel
-        sig[I_OM] = tun.sigma0_Omega
-        if self.order >= 2:
-            sig[I_OM + 1] = tun.sigma0_Omega_rate
-        if self.order >= 3:
-            sig[I_OM + 2] = tun.sigma0_Omega_acc
-        self.xhat = xhat
-        self.P = np.diag(sig**2)
-        M = len(self.rate_models)
-        self.xs = np.tile(xhat, (M, 1))  # each rate model's filter (observer_rate)
-        self.Ps = np.tile(self.P, (M, 1, 1))
-        self.mu = np.full(M, 1.0 / M)  # model probabilities after the last correction
-        self.c = self.mu.copy()  # ... predicted to the next one
-        # running peak |z1|, |z2|, from the prior's scale: R > 0 in relative noise mode
-        i0 = self.measured_pair.state_rows[0]
-        self.peak = sig[[i0, i0 + 2]] * self._model.hgain
-        self.nu2 = np.full(2, -1.0)  # EWMA of squared innovations (< 0: not started)
-        self.mon = np.zeros(N_MON)  # divergence monitor (observer_kernels.M_*)
-        self.t = 0.0  # s since construction
-        self.status = 0  #: 0 ok, 1 warning (innovations above their band), 2 lost
-        self.lost: str | None = None  #: why the filter is lost (then every step refuses)
-
-    def _build(self, wx: float, wy: float, theta0: np.ndarray, scale: np.ndarray) -> None:
-        """The ObserverModel and caches that depend only on the scaling (set_state too)."""
-        self.wx, self.wy = wx, wy
-        self.theta0 = theta0
-        self.scale = scale
-        n = self.n
-        r = wy / wx
-        # d(A_aug xi)/d(p, Omega): rows 1 and 3 are Mg[0] @ xi and Mg[1] @ xi, xi = [s, 1]
-        Mg = np.zeros((2, 8, 5))
-        Mg[0, 0, 0] = -scale[0] / wx
-        Mg[1, 1, 2] = -scale[1] / wy
-        Mg[0, 2, 2] = -scale[2] / wx
-        Mg[1, 2, 0] = -scale[2] / wy
-        Mg[0, 3, 1] = -scale[3]
-        Mg[1, 4, 3] = -scale[4]
-        Mg[0, 5, 3] = -scale[5] * r
-        Mg[1, 5, 1] = -scale[5] / r
-        Mg[0, 7, 3] = 2.0 * r
-        Mg[1, 7, 1] = -2.0 / r
-        A = np.zeros((5, 5))
-        A[0, 1] = wx
-        A[2, 3] = wy
-        stack = np.zeros((KMAX, 5, 5))
-        stack[0] = np.eye(5)
-        i0 = self.measured_pair.state_rows[0]
-        hgain = np.array([1.0, 1.0] if self.measured_pair is MeasuredPair.POSITIONS
-                         else [wx, wy])
-        self._model = ObserverModel(
-            theta0=theta0, scale=scale, wx=wx, wy=wy, i0=i0, hgain=hgain, A=A,
-            MgT=Mg.reshape(16, 5).T.copy(), stack=stack,
-            G=np.zeros((KMAX, 16)), Gb=np.zeros((KMAX, 16)))
-        tun = self.tuning
-        self._noise = NoiseModel(
-            sigma_z1=float(tun.sigma_z1), sigma_z2=float(tun.sigma_z2),
-            noise_rel=float(tun.noise_rel), innov_floor=float(tun.innov_floor),
-            innov_tau=float(tun.innov_tau), joseph=bool(tun.joseph))
-        self._model_t, self._noise_t = tuple(self._model), tuple(self._noise)
         self.rate_models = rate.model_names(tun)  #: names of the rate models run
-        self._Fr, self._Qr, self._Pi = rate.rate_models(tun, 1.0)
-        self._qpar = 0.0
-        self._h_cached = -1.0
-        self._Tdiag = np.array([1.0, 1.0 / wx, 1.0, 1.0 / wy])
-        self._out = np.empty(N_OUTPUTS)
-        self._L = np.zeros((n, n))  # Cholesky factor scratch of the monitor
-        self._lim = limits(self._model, tun, self.measured_pair)
 
-    def _set_h(self, h: float) -> None:
-        """Rate models' transitions and process noise of a step h (cached: h rarely changes)."""
-        step_too_coarse(h, max(self.wx, self.wy))
-        self._Fr, self._Qr, self._Pi = rate.rate_models(self.tuning, h)
-        self._qpar = self.tuning.q_param_rel * h
-        self._h_cached = h
+    # ------------------------------------------------------------------ views of the struct
+    @property
+    def n(self) -> int:
+        """Filter states: 4 + 7 + the rate block's."""
+        return self._c.n
 
-    @staticmethod
-    def _check_h(h: float) -> None:
-        if not (h > 0.0 and math.isfinite(h)):
-            raise ValueError(f"step h={h!r} s must be finite and > 0")
+    @property
+    def order(self) -> int:
+        """States of the rate block (Omega_z and the derivatives its models use)."""
+        return self._c.order
 
-    @staticmethod
-    def _check_finite(**values: float) -> None:
-        if not all(math.isfinite(v) for v in values.values()):
-            raise ValueError(
-                "non-finite input " + ", ".join(f"{k}={v!r}" for k, v in values.items())
-                + ": pass finite forces (N) and measurements"
-            )
+    def _view(self, field: str, *shape: int) -> np.ndarray:
+        a = np.ctypeslib.as_array(getattr(self._c, field))
+        return a[tuple(slice(0, k) for k in shape)] if shape else a
+
+    @property
+    def xhat(self) -> np.ndarray:
+        """Combined estimate of the filter state (a view into the core's struct)."""
+        return self._view("x", self.n)
+
+    @property
+    def P(self) -> np.ndarray:
+        """Its covariance (n x n view)."""
+        return self._view("P", self.n, self.n)
+
+    @property
+    def xs(self) -> np.ndarray:
+        """Each rate model's filter state (M x n view)."""
+        return self._view("xs", self._c.n_models, self.n)
+
+    @property
+    def Ps(self) -> np.ndarray:
+        """Each rate model's covariance (M x n x n view)."""
+        return self._view("Ps", self._c.n_models, self.n, self.n)
+
+    @property
+    def mu(self) -> np.ndarray:
+        """Model probabilities after the last correction."""
+        return self._view("mu", self._c.n_models)
+
+    @property
+    def c(self) -> np.ndarray:
+        """Model probabilities predicted to the next correction."""
+        return self._view("c", self._c.n_models)
+
+    @property
+    def peak(self) -> np.ndarray:
+        """Running peak |z1|, |z2|."""
+        return self._view("peak")
+
+    @property
+    def theta0(self) -> np.ndarray:
+        """Initial guess of theta = [kxx, kyy, kxy, dxx, dyy, dxy, 1/m]."""
+        return self._view("theta0").copy()
+
+    @property
+    def scale(self) -> np.ndarray:
+        """Scale of each parameter deviation: theta = theta0 + scale p."""
+        return self._view("scale").copy()
+
+    @property
+    def wx(self) -> float:
+        return self._c.wx
+
+    @property
+    def wy(self) -> float:
+        return self._c.wy
+
+    @property
+    def t(self) -> float:
+        """s since construction."""
+        return self._c.t
+
+    @property
+    def status(self) -> int:
+        """0 ok, 1 warning (innovations above their band), 2 lost."""
+        return self._c.status
+
+    @property
+    def lost(self) -> str | None:
+        """Why the filter is lost (then every step refuses), or None."""
+        return self._c.lost_message.decode() if self._c.lost else None
 
     # ------------------------------------------------------------------ API
+    def _result(self, code: int) -> None:
+        if code >= 0 and code != cobs.STEP_LOST:
+            return
+        text = self._msg.value.decode()
+        if code in (cobs.STEP_LOST, cobs.REFUSED):
+            raise ObserverDivergedError(text)
+        if code == cobs.TOO_COARSE:
+            raise ObserverStepError(text)
+        raise ValueError(text)
+
     def step(self, ux: float, uy: float, z1: float, z2: float, h: float) -> None:
         """Correct with the measured pair (z1, z2) at t, then propagate to t + h.
 
         ux, uy (N) are the drive force at t, held over [t, t+h] as the plant holds it;
         Omega_z is likewise held at its estimate over the step. h (s) may vary.
-        Same as update(z1, z2, h) then predict(ux, uy, h), in one compiled call.
+        Same as update(z1, z2, h) then predict(ux, uy, h), in one call of the core.
         """
-        if not (h > 0.0 and math.isfinite(h)):
-            self._check_h(h)
-        if not (math.isfinite(ux) and math.isfinite(uy) and math.isfinite(z1)
-                and math.isfinite(z2)):
-            self._check_finite(ux=ux, uy=uy, z1=z1, z2=z2)
-        if self.lost is not None:
-            raise ObserverDivergedError(self.lost)
-        if h != self._h_cached:  # first: a refused step changes nothing
-            self._set_h(h)
-        pv = pk0 = pk1 = 0.0  # a prior started by the drive, applied before the predict
-        if self._auto_prior:  # as update() then predict() start it
-            self._start_prior(0.0, 0.0, z1, z2)
-            if self._auto_prior:
-                size = self._prior_size(ux, uy, 0.0, 0.0)
-                if size > 0.0:
-                    g = self._model.hgain
-                    q = PRIOR_FRACTION * size
-                    pv, pk0, pk1 = q * q, size * g[0], size * g[1]
-                    self._auto_prior = False
-        code = _ekf_step(self._model_t, self._noise_t, self._lim, self.xs, self.Ps, self.c,
-                         self.mu, self.xhat, self.P, self._L, self.peak, self.nu2, self.mon,
-                         self._Fr, self._Qr, self._Pi, self._qpar, float(ux), float(uy),
-                         float(z1), float(z2), float(h), pv, pk0, pk1)
-        self.t += h
-        if code != self.status:
-            self._verdict(code, h)
-
-    def _prior_size(self, ux: float, uy: float, z1: float, z2: float) -> float:
-        """The signal size (m) that starts the auto prior (_start_prior); 0: at rest."""
-        th, tun = self.theta0, self.tuning
-        g = self._model.hgain
-        zs = [abs(z) / gj if abs(z) > 3.0 * sz else 0.0
-              for z, gj, sz in ((z1, g[0], tun.sigma_z1), (z2, g[1], tun.sigma_z2))]
-        return max(*zs, th[6] * abs(ux) / th[0], th[6] * abs(uy) / th[1])
-
-    def _start_prior(self, ux: float, uy: float, z1: float, z2: float) -> None:
-        """Scale-invariant prior of [x, vx, y, vy]: at rest (variance 0) until the first
-        drive or measurement above its noise (3 sigma_z; any nonzero one in relative noise
-        mode), then 1-sigma = PRIOR_FRACTION of the static deflection b |u| / k of the
-        guess (drive) or PRIOR_FRACTION_MEASURED of the measured displacement, in m, and
-        that times the guessed natural frequency for the velocities."""
-        size = self._prior_size(ux, uy, z1, z2)
-        if not size > 0.0:
-            return
-        np.maximum(self.peak, size * self._model.hgain, out=self.peak)
-        size *= PRIOR_FRACTION if (ux or uy) else PRIOR_FRACTION_MEASURED
-        for i in range(4):  # filter units: m for all four (velocities scaled by 1/w)
-            self.P[i, i] += size * size
-            self.Ps[:, i, i] += size * size
-        self._auto_prior = False
-
-    def _verdict(self, code: int, h: float) -> None:
-        """Act on a monitor verdict: status 0/1, or lost: the filter refuses from now on."""
-        if code < 2:
-            self.status = code
-            return
-        self.status = 2
-        self.lost = lost_message(self.mon, self, h)
-        raise ObserverDivergedError(self.lost)
-
-    @property
-    def warning(self) -> str | None:
-        """The latest block's warning in words while status is 1, else None."""
-        return warning_message(self.mon, self._lim, self.t) if self.status == 1 else None
+        code = self._lib.gyro_observer_step(self._ref, ux, uy, z1, z2, h, self._msg, 2048)
+        if code:
+            self._result(code)
 
     def update(self, z1: float, z2: float, h: float) -> None:
         """Correct the estimate with the measured pair (z1, z2) at t (eq. 8).
 
         h (s) is the step that follows: the time base of the innovation average.
         """
-        self._check_h(h)
-        self._check_finite(z1=z1, z2=z2)
-        if self.lost is not None:
-            raise ObserverDivergedError(self.lost)
-        if self._auto_prior:
-            self._start_prior(0.0, 0.0, z1, z2)
-        rate.update(self._model, self._noise, self.xs, self.Ps, self.c, self.mu, self.xhat,
-                    self.P, self.peak, self.nu2, self.mon, float(z1), float(z2), float(h))
+        self._result(self._lib.gyro_observer_update(self._ref, float(z1), float(z2), float(h),
+                                                    self._msg, 2048))
 
     def predict(self, ux: float, uy: float, h: float) -> None:
         """Propagate the estimate and its covariance to t + h (eq. 5), ux, uy (N) held."""
-        self._check_h(h)
-        self._check_finite(ux=ux, uy=uy)
-        if self.lost is not None:
-            raise ObserverDivergedError(self.lost)
-        if h != self._h_cached:
-            self._set_h(h)
-        if self._auto_prior:
-            self._start_prior(ux, uy, 0.0, 0.0)
-        rate.predict(self._model, self.xs, self.Ps, self.mu, self.c, self._Pi, self.xhat,
-                     self.P, self._Fr, self._Qr, self._qpar, self.peak, float(ux), float(uy),
-                     float(h))
-        self.t += h
-        code = check(self._model, MonitorLimits(*self._lim), self.xhat, self.P, self._L,
-                     self.peak, self.mon)
-        if code != self.status:
-            self._verdict(code, h)
+        self._result(self._lib.gyro_observer_predict(self._ref, float(ux), float(uy), float(h),
+                                                     self._msg, 2048))
+
+    @property
+    def warning(self) -> str | None:
+        """The latest block's warning in words while status is 1, else None."""
+        if self._lib.gyro_observer_warning(self._ref, self._msg, 2048):
+            return self._msg.value.decode()
+        return None
 
     def held_step(self, s: np.ndarray, ux: float, uy: float, h: float,
                   theta: np.ndarray | None = None, Omega_z: float | None = None
@@ -343,32 +232,28 @@ class GyroStateObserver:
         """
         x = self.xhat
         th = (self.theta0 + self.scale * x[I_PAR:I_PAR + N_PAR] if theta is None
-              else np.asarray(theta, dtype=float))
+              else np.ascontiguousarray(theta, dtype=float))
         om = float(x[I_OM] if Omega_z is None else Omega_z)
-        T = self._Tdiag
-        s1, Phi, S = kern.held_step(self._model, np.ascontiguousarray(th), om,
-                                    np.asarray(s, dtype=float) * T, float(ux), float(uy),
-                                    float(h))
+        T = np.array([1.0, 1.0 / self.wx, 1.0, 1.0 / self.wy])
+        s0 = np.ascontiguousarray(np.asarray(s, dtype=float) * T)
+        s1, Phi, S = np.empty(4), np.empty((4, 4)), np.empty((4, 8))
+        self._lib.gyro_observer_held_step(self._ref, _ptr(th), om, _ptr(s0), float(ux),
+                                          float(uy), float(h), _ptr(s1), _ptr(Phi), _ptr(S))
         return s1 / T, Phi / T[:, None] * T[None, :], S / T[:, None]
 
     def output_row(self) -> list[float]:
         """[x, vx, y, vy] (m, m/s), UNKNOWNS, then their 1-sigmas: what the FMU publishes."""
-        kern.output_row(self.theta0, self.scale, self.xhat, self.P, self._Tdiag, self._out)
-        return self._out.tolist()
+        out = (ctypes.c_double * N_OUTPUTS)()
+        self._lib.gyro_observer_outputs(self._ref, out)
+        return list(out)
 
     def rate_probabilities(self) -> dict[str, float]:
         """P(the rate is constant / rough / slow / agile) after the last step (observer_rate): the
         IMM's model probabilities; a fixed model: 1 for its kind (agile for tracking),
         0 for the others; expert: all 0."""
-        out = dict.fromkeys(rate.RATE_KINDS, 0.0)
-        kind = rate.RateModel(int(self.tuning.rate_model))
-        if kind is rate.RateModel.adaptive:
-            out.update(zip(self.rate_models, self.c.tolist(), strict=True))
-        elif kind is rate.RateModel.constant:
-            out["constant"] = 1.0
-        elif kind is rate.RateModel.tracking:
-            out["agile"] = 1.0
-        return out
+        out = (ctypes.c_double * 4)()
+        self._lib.gyro_observer_rate_probabilities(self._ref, out)
+        return dict(zip(rate.RATE_KINDS, out, strict=True))
 
     def state_estimate(self) -> np.ndarray:
         """[x, vx, y, vy] at the current time (m, m/s)."""
@@ -384,6 +269,10 @@ class GyroStateObserver:
 
     def get_state(self) -> dict:
         """Everything internal as plain floats / lists (JSON-serializable)."""
+        mon = self._c.mon
+        numbers = [getattr(mon, n) for n in ("nis", "count", "status", "cause", "which",
+                                               "value", "block", "last_nis", "last_rel")]
+        numbers += [*mon.prev, *mon.ac, *mon.sq, mon.last_corr]
         return {
             "version": _STATE_VERSION,
             "measured_pair": int(self.measured_pair),
@@ -397,8 +286,8 @@ class GyroStateObserver:
             "rate_filters": {"x": self.xs.tolist(), "P": self.Ps.tolist(),
                              "mu": self.mu.tolist(), "c": self.c.tolist()},
             "peak": self.peak.tolist(),
-            "nu2": self.nu2.tolist(),
-            "monitor": [*self.mon.tolist(), self.status, self.lost, self._auto_prior],
+            "nu2": self._view("nu2").tolist(),
+            "monitor": [*numbers, self.status, self.lost, bool(self._c.auto_prior)],
             "t": self.t,
         }
 
@@ -411,7 +300,19 @@ class GyroStateObserver:
                 f"version {state.get('version') if isinstance(state, dict) else None!r}"
             )
         tuning = ObserverTuning(**state["tuning"])
-        n = 4 + N_PAR + rate.rate_block_size(tuning)
+        pair = MeasuredPair.of(int(state["measured_pair"]))
+        theta0 = np.array(state["theta0"], dtype=float)
+        scale = np.array(state["scale"], dtype=float)
+        if theta0.shape != (N_PAR,) or scale.shape != (N_PAR,):
+            raise ValueError(f"observer state has theta0 {theta0.shape} and scale "
+                             f"{scale.shape}; expected ({N_PAR},) each")
+        # a fresh struct of this tuning and pair (a guess from theta0), then the saved numbers
+        th = theta0
+        guess = GyroParameters(kxx=th[0], kyy=th[1], kxy=th[2], dxx=th[3], dyy=th[4],
+                               dxy=th[5], m=1.0 / th[6])
+        other = GyroStateObserver(guess, 0.0, int(pair), tuning)
+        c = other._c
+        n, M = c.n, c.n_models
         xhat = np.array(state["xhat"], dtype=float)
         P = np.array(state["P"], dtype=float)
         if xhat.shape != (n,) or P.shape != (n, n):
@@ -421,29 +322,43 @@ class GyroStateObserver:
                 f"{tuning.omega_order}"
             )
         rf = state["rate_filters"]
-        M = len(rate.model_names(tuning))
         xs, Ps = np.array(rf["x"], dtype=float), np.array(rf["P"], dtype=float)
-        mu, c = np.array(rf["mu"], dtype=float), np.array(rf["c"], dtype=float)
-        if xs.shape != (M, n) or Ps.shape != (M, n, n) or mu.shape != (M,) or c.shape != (M,):
+        mu, cc = np.array(rf["mu"], dtype=float), np.array(rf["c"], dtype=float)
+        if xs.shape != (M, n) or Ps.shape != (M, n, n) or mu.shape != (M,) or cc.shape != (M,):
             raise ValueError(
                 f"observer state has rate filters x {xs.shape}, P {Ps.shape}, mu {mu.shape}; "
                 f"expected ({M}, {n}), ({M}, {n}, {n}), ({M},) for its rate models"
             )
-        self.tuning = tuning
-        self.measured_pair = MeasuredPair.of(int(state["measured_pair"]))
-        self.order = rate.rate_block_size(tuning)
-        self.n = n
-        self.xs, self.Ps, self.mu, self.c = xs, Ps, mu, c
-        self._build(float(state["wx"]), float(state["wy"]),
-                    np.array(state["theta0"], dtype=float), np.array(state["scale"], dtype=float))
-        self.xhat = xhat
-        self.P = P
-        self.peak = np.array(state["peak"], dtype=float)
-        self.nu2 = np.array(state["nu2"], dtype=float)
         mon = state["monitor"]
         if not (isinstance(mon, list) and len(mon) == N_MON + 3):
             raise ValueError(f"observer state monitor {mon!r}: expected a list of {N_MON + 3}")
-        self.mon = np.array(mon[:N_MON], dtype=float)
-        self.status, self.lost, self._auto_prior = int(mon[N_MON]), mon[N_MON + 1], \
-            bool(mon[N_MON + 2])
-        self.t = float(state["t"])
+        other._lib.gyro_observer_set_scaling(other._ref, float(state["wx"]), float(state["wy"]),
+                                             _ptr(theta0), _ptr(scale))
+        other.xhat[:] = xhat
+        other.P[:] = P
+        other.xs[:] = xs
+        other.Ps[:] = Ps
+        other.mu[:] = mu
+        other.c[:] = cc
+        other.peak[:] = np.array(state["peak"], dtype=float)
+        other._view("nu2")[:] = np.array(state["nu2"], dtype=float)
+        m = c.mon
+        for name, value in zip(("nis", "count", "status", "cause", "which", "value", "block",
+                                "last_nis", "last_rel"), mon[:9], strict=True):
+            setattr(m, name, float(value))
+        m.prev[:], m.ac[:], m.sq[:] = mon[9:11], mon[11:13], mon[13:15]
+        m.last_corr = float(mon[15])
+        c.status = int(mon[N_MON])
+        lost = mon[N_MON + 1]
+        c.lost = int(lost is not None)
+        c.lost_message = (lost or "").encode()[:1023]
+        c.auto_prior = int(bool(mon[N_MON + 2]))
+        c.t = float(state["t"])
+        self._c, self._ref, self._lib, self._msg = c, ctypes.byref(c), other._lib, other._msg
+        self.tuning, self.measured_pair, self.rate_models = tuning, pair, other.rate_models
+
+    def __getstate__(self) -> dict:  # pickling and copy: the JSON-able state
+        return self.get_state()
+
+    def __setstate__(self, state: dict) -> None:
+        self.set_state(state)

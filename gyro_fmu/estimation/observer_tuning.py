@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, fields
+
+from ..core.observer import INTEGER_FIELDS, tuning_problem
 
 
 def _tuning(default: float, unit: str, description: str, **bounds: float):
@@ -91,45 +92,21 @@ class ObserverTuning:
         "steps)", max=1)
 
     def __post_init__(self) -> None:
+        """Whole numbers where the FMU has Integers, numbers elsewhere; then the core's
+        rules (gyro_observer_tuning_problems, the ones GyroObserver.fmu refuses with)."""
         for f in fields(self):
             v = getattr(self, f.name)
-            if f.name in ("joseph", "omega_order", "rate_model"):
-                if isinstance(v, float) and not v.is_integer():
-                    raise ValueError(f"ObserverTuning.{f.name}={v!r} must be a whole number "
-                                     "(an FMU Integer parameter)")
-                if f.name == "joseph" and v not in (0, 1):
-                    raise ValueError(f"ObserverTuning.joseph={v!r}: use 1 (Joseph form) or 0")
-                continue
-            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0.0):
-                raise ValueError(
-                    f"ObserverTuning.{f.name}={v!r} must be a finite number >= 0"
-                )
-        if self.omega_order not in (1, 2, 3):
-            raise ValueError(
-                f"ObserverTuning.omega_order={self.omega_order!r}: use 1 (random walk), "
-                "2 (integrated random walk) or 3"
-            )
-        if self.rate_model not in (0, 1, 2, 3):
-            raise ValueError(
-                f"ObserverTuning.rate_model={self.rate_model!r}: use 0 (adaptive), 1 "
-                "(constant), 2 (tracking at rate_bandwidth) or 3 (expert: q_Omega, omega_order)"
-            )
-        for name in ("rate_bandwidth", "rate_span", "rate_dwell"):
-            if getattr(self, name) <= 0.0:
-                raise ValueError(
-                    f"ObserverTuning.{name}={getattr(self, name)!r} must be > 0 (its unit: "
-                    f"{fields_by_name()[name].metadata['unit']})"
-                )
-        if self.noise_rel <= 0.0 and (self.sigma_z1 <= 0.0 or self.sigma_z2 <= 0.0):
-            raise ValueError(
-                f"ObserverTuning.noise_rel={self.noise_rel!r}: give noise_rel > 0 "
-                "(e.g. 1e-6 for noise-free data) or both sigma_z1 and sigma_z2 > 0"
-            )
-        if self.innov_tau <= 0.0:
-            raise ValueError(f"ObserverTuning.innov_tau={self.innov_tau!r} s must be > 0")
-        for name in ("sigma0_k_rel", "sigma0_d_rel", "sigma0_m_rel", "sigma0_Omega"):
-            if getattr(self, name) <= 0.0:
-                raise ValueError(
-                    f"ObserverTuning.{name}={getattr(self, name)!r} must be > 0: a zero "
-                    "initial uncertainty freezes that estimate"
-                )
+            if isinstance(v, bool) or not isinstance(v, int | float):
+                if not (f.name == "joseph" and isinstance(v, bool)):
+                    raise ValueError(f"ObserverTuning.{f.name}={v!r} must be a number")
+            if f.name in INTEGER_FIELDS and isinstance(v, float) and not v.is_integer():
+                raise ValueError(f"ObserverTuning.{f.name}={v!r} must be a whole number "
+                                 "(an FMU Integer parameter)")
+            if f.name in INTEGER_FIELDS and not -2**31 <= v < 2**31:
+                raise ValueError(f"ObserverTuning.{f.name}={v!r} is out of range: see its "
+                                 "description for the values it takes")
+        values = {f.name: (int(getattr(self, f.name)) if f.name in INTEGER_FIELDS
+                           else float(getattr(self, f.name))) for f in fields(self)}
+        problem = tuning_problem(values)
+        if problem:
+            raise ValueError(f"ObserverTuning.{problem}")

@@ -62,12 +62,12 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
+from ..core.observer import prior_fraction
 from ..model.drive import TwoToneDrive
 from ..model.measurement import MeasuredPair
 from ..model.parameters import PARAMETER_NAMES, GyroParameters
 from .fisher import RTOL
-from .observer import PRIOR_FRACTION, GyroStateObserver, ObserverTuning
-from .observer_kernels import I_PAR, N_PAR
+from .observer import I_PAR, N_PAR, GyroStateObserver, ObserverTuning
 from .rate_processes import (
     RateProcess,
     constant_rate,
@@ -233,12 +233,12 @@ def _prior_sigmas(initial: GyroParameters, tuning: ObserverTuning) -> np.ndarray
 
 def _state_prior(initial: GyroParameters, tuning: ObserverTuning, u1: float) -> np.ndarray:
     """1-sigma of s_0 = [x, vx, y, vy]: the tuning's, or the observer's auto prior
-    (PRIOR_FRACTION of the guessed static deflection of the first drive sample u1)."""
+    (the core's prior fraction of the guessed static deflection of the first drive sample u1)."""
     wx, wy = math.sqrt(initial.kxx), math.sqrt(initial.kyy)
     if tuning.sigma0_position > 0.0 and tuning.sigma0_velocity > 0.0:
         sp, sv = tuning.sigma0_position, tuning.sigma0_velocity
         return np.array([sp, sv, sp, sv])
-    size = PRIOR_FRACTION * abs(u1) / initial.m / initial.kxx
+    size = prior_fraction() * abs(u1) / initial.m / initial.kxx
     return np.array([size, size * wx, size, size * wy])
 
 

@@ -80,7 +80,7 @@ CAPABILITIES = {
 FMU_NAMES = ("GyroPlant", "TwoToneDrive", "RateProfile", "GyroObserver", "GyroResonator",
              "GyroLoops")
 #: The native C FMUs (gyro_fmu.fmu.native), prebuilt in the package.
-NATIVE_NAMES = ("GyroPlant", "TwoToneDrive", "RateProfile")
+NATIVE_NAMES = ("GyroPlant", "TwoToneDrive", "RateProfile", "GyroObserver")
 #: The FMUs built by pythonfmu (the other ones on request: flavour="pythonfmu").
 PYTHONFMU_NAMES = tuple(n for n in FMU_NAMES if n not in NATIVE_NAMES)
 FLAVOURS = ("native", "pythonfmu")

@@ -47,7 +47,7 @@ from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Initial, Fmi2Status
 from pythonfmu.variables import Integer, Real
 
-from ..model.interfaces import Var
+from ..model.interfaces import Var, dataclass_parameters  # noqa: F401 (re-exported)
 from . import state as fmu_state
 from .host_status import ERROR, WARNING, HostStatus, host_library_mismatch
 from .units import UNITS
@@ -382,28 +382,6 @@ class GyroSlave(Fmi2Slave):
 def spec_is_parameter(slave: GyroSlave, vr: int) -> bool:
     var = slave.vars.get(vr)
     return var is not None and slave._spec[var.name].is_parameter
-
-
-def dataclass_parameters(cls: type) -> tuple[Var, ...]:
-    """FMU parameters for the fields of a tuning dataclass (float, int or bool fields).
-
-    Each field may carry metadata {"unit", "description", "min", "max"}; booleans
-    become Integer 0/1 parameters so every importer can set them.
-    """
-    import dataclasses
-
-    out = []
-    for f in dataclasses.fields(cls):
-        integer = f.type in (int, bool, "int", "bool")
-        boolean = f.type in (bool, "bool")
-        meta = f.metadata
-        out.append(Var(
-            f.name, "parameter", int(f.default) if integer else float(f.default),
-            None if integer else meta.get("unit", "1"),
-            meta.get("description", f"tuning: {f.name}"), integer=integer,
-            min=0 if boolean else meta.get("min"), max=1 if boolean else meta.get("max"),
-        ))
-    return tuple(out)
 
 
 def dataclass_from_parameters(cls: type, slave: object) -> object:

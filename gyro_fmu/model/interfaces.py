@@ -58,6 +58,28 @@ class Var:
         return None
 
 
+def dataclass_parameters(cls: type) -> tuple[Var, ...]:
+    """FMU parameters for the fields of a tuning dataclass (float, int or bool fields).
+
+    Each field may carry metadata {"unit", "description", "min", "max"}; booleans
+    become Integer 0/1 parameters so every importer can set them.
+    """
+    import dataclasses
+
+    out = []
+    for f in dataclasses.fields(cls):
+        integer = f.type in (int, bool, "int", "bool")
+        boolean = f.type in (bool, "bool")
+        meta = f.metadata
+        out.append(Var(
+            f.name, "parameter", int(f.default) if integer else float(f.default),
+            None if integer else meta.get("unit", "1"),
+            meta.get("description", f"tuning: {f.name}"), integer=integer,
+            min=0 if boolean else meta.get("min"), max=1 if boolean else meta.get("max"),
+        ))
+    return tuple(out)
+
+
 @dataclass(frozen=True)
 class FmuInterface:
     """What an FMU shows its importer: its variables and what its checks need."""
@@ -174,5 +196,5 @@ RATE = FmuInterface(
     core_sources=("gyro_signals.c",),
 )
 
-#: The native FMUs, by model identifier.
-NATIVE_INTERFACES: dict[str, FmuInterface] = {i.identifier: i for i in (PLANT, DRIVE, RATE)}
+#: The physics' native FMUs, by model identifier (gyro_fmu.fmu.native adds the observer).
+PHYSICS_INTERFACES: dict[str, FmuInterface] = {i.identifier: i for i in (PLANT, DRIVE, RATE)}

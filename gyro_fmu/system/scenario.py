@@ -28,27 +28,11 @@ from ..model.parameters import (
     PRESET_DRIVE_AMPLITUDE,
     GyroParameters,
     ParameterError,
+    default_initial_guess,
     preset,
 )
 from ..model.plant import MEASURED, GyroPlantModel, MeasurementNoise
 from ..model.rate import RateKind, RateProfile
-
-#: Multipliers from truth to the observer's default initial guess: a part whose
-#: every parameter is a few percent to 20% away from what the observer assumes.
-INITIAL_GUESS_FACTORS: dict[str, float] = {
-    "kxx": 1.05, "kyy": 0.95, "kxy": 1.05, "dxx": 1.2, "dyy": 1.2, "dxy": 0.8, "m": 1.05,
-}
-#: Initial guess of a damping whose truth is 0 (1/s), where a factor cannot move it.
-INITIAL_GUESS_FOR_ZERO_DAMPING = 2.0
-
-
-def default_initial_guess(p: GyroParameters) -> dict[str, float]:
-    """Observer start: truth times INITIAL_GUESS_FACTORS (documented in the README)."""
-    guess = {n: getattr(p, n) * f for n, f in INITIAL_GUESS_FACTORS.items()}
-    for name in ("dxx", "dyy", "dxy"):
-        if getattr(p, name) == 0.0:
-            guess[name] = INITIAL_GUESS_FOR_ZERO_DAMPING
-    return guess
 
 
 @dataclass(frozen=True)

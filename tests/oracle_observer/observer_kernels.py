@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ..model.dynamics import inf_norm_rows, system_matrix_of
+from .dynamics import inf_norm_rows, system_matrix_of
 
 N_PAR = 7  #: kxx, kyy, kxy, dxx, dyy, dxy, b = 1/m
 I_PAR = 4  #: index of the first parameter in the filter state
@@ -149,8 +149,21 @@ def _held_step_split(xi0, Ah, h, MgT, beta, st, G, Gb, s1, Phi, S):  # pragma: n
     s_1 = np.empty(4)
     for _ in range(nsub):
         _held_step_single(xi, Ahs, h / nsub, MgT, beta, st, G, Gb, s_1, Phi1, S1)
-        S_t = Phi1 @ S_t + S1
-        Phi_t = Phi1 @ Phi_t
+        S_n = np.empty((4, 8))
+        P_n = np.empty((4, 4))
+        for i in range(4):
+            for q in range(8):
+                acc = 0.0
+                for c in range(4):
+                    acc += Phi1[i, c] * S_t[c, q]
+                S_n[i, q] = acc + S1[i, q]
+            for q in range(4):
+                acc = 0.0
+                for c in range(4):
+                    acc += Phi1[i, c] * Phi_t[c, q]
+                P_n[i, q] = acc
+        S_t = S_n
+        Phi_t = P_n
         xi[:4] = s_1
     s1[:] = xi[:4]
     Phi[:, :] = Phi_t

@@ -1,0 +1,191 @@
+/* The state observer of US 2011/0314910 A1 (eqs. 5-9), run as an extended Kalman filter
+ * on the augmented state of eq. 5, with an adaptive model of Omega_z(t) (interacting
+ * multiple models) and a divergence monitor. Every per-step computation of the observer
+ * lives here, once: GyroObserver.fmu and the Python library (GyroStateObserver) call it.
+ *
+ * Filter state x = [x, vx/wx, y, vy/wy, p_kxx, p_kyy, p_kxy, p_dxx, p_dyy, p_dxy, p_b,
+ * Omega_z, dOmega_z/dt, d2Omega_z/dt2 (as many as the rate models use)], wx = sqrt(kxx_0),
+ * wy = sqrt(kyy_0); the parameters theta = [kxx, kyy, kxy, dxx, dyy, dxy, b = 1/m] are
+ * theta0 + scale p. Units: k's 1/s^2, d's 1/s, m kg, Omega_z rad/s, forces N.
+ *
+ * One step = update (eq. 8: correct with the measured pair at t) then predict (eq. 5: the
+ * exact held-input step to t + h with ux, uy and Omega_z held, as the plant steps), then
+ * the monitor's verdict. Design and measurements: docs/observer-design.md,
+ * docs/observer-rate-model.md, docs/observer-soundness.md. */
+#ifndef GYRO_OBSERVER_H
+#define GYRO_OBSERVER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "gyro_plant.h"
+
+#define GYRO_OBS_NPAR 7  /* kxx, kyy, kxy, dxx, dyy, dxy, b = 1/m */
+#define GYRO_OBS_IPAR 4  /* filter-state row of the first parameter */
+#define GYRO_OBS_IOM 11  /* filter-state row of Omega_z */
+#define GYRO_OBS_NMAX 14 /* most filter states (rate block of 3) */
+#define GYRO_OBS_MMAX 4  /* most rate models (the adaptive set) */
+#define GYRO_OBS_RMAX 3  /* most rate-block states */
+#define GYRO_OBS_KMAX 24 /* most Taylor terms of the held step (||A h|| <= 0.5 needs 18) */
+#define GYRO_OBS_MESSAGE 1024
+
+/* ObserverTuning (gyro_fmu/estimation/observer_tuning.py: units and meaning of each). */
+typedef struct {
+    double noise_rel, sigma_z1, sigma_z2, innov_floor, innov_tau;
+    int32_t rate_model, omega_order; /* RateModel: 0 adaptive 1 constant 2 tracking 3 expert */
+    double rate_bandwidth, rate_span, rate_dwell, q_Omega, q_param_rel;
+    double sigma0_k_rel, sigma0_d_rel, sigma0_m_rel;
+    double sigma0_Omega, sigma0_Omega_rate, sigma0_Omega_acc;
+    double sigma0_position, sigma0_velocity;
+    int32_t joseph, reserved;
+} GyroObserverTuning;
+
+/* Limits of the divergence monitor (gyro_observer_init sets them; observer_monitor.py
+ * says why each is what it is). */
+typedef struct {
+    int32_t block;    /* innovation statistics judged over blocks of this many corrections */
+    int32_t absolute; /* absolute noise stds given: NIS against chi-square */
+    double nis_warn, nis_lost; /* block mean NIS (2 dof per correction) */
+    double rel_warn, rel_lost; /* relative mode: block RMS innovation / running peak */
+    double ratio;     /* kxx, kyy, 1/m within [theta0 / ratio, theta0 ratio] */
+    double d_max;     /* |dxx|, |dyy|, |dxy| <= d_max (1/s) */
+    double omega_max; /* |Omega_z| <= omega_max (rad/s) */
+    double corr_warn, nis_min; /* warning: lag-1 autocorrelation above corr_warn while NIS
+                                  above nis_min */
+} GyroMonitorLimits;
+
+/* Monitor verdicts: 0 ok, 1 warning, >= 2 lost, by cause. */
+enum { GYRO_MON_OK, GYRO_MON_WARN, GYRO_MON_NONFINITE, GYRO_MON_NOT_SPD, GYRO_MON_BOUNDS,
+       GYRO_MON_INNOVATIONS };
+
+/* The monitor's accumulators over the current block and its last verdict. */
+typedef struct {
+    double nis, count;       /* sum of NIS and corrections so far in the block */
+    double status, cause, which, value; /* last verdict (GYRO_MON_*), what tripped, value */
+    double block;            /* blocks judged */
+    double last_nis, last_rel; /* the last block's mean NIS and RMS innovation / peak */
+    double prev[2], ac[2], sq[2]; /* last innovations, lag-1 products, squares (z1, z2) */
+    double last_corr;        /* the last block's larger lag-1 autocorrelation */
+} GyroMonitor;
+
+/* What one observer is: constants of its scaling, the rate models of the current step
+ * and its state. A plain struct (no pointers): an FMU state is a copy of it. */
+typedef struct {
+    GyroObserverTuning tuning;
+    int32_t pair;        /* 1: positions x, y measured; 2: velocities vx, vy */
+    int32_t n;           /* filter states: 4 + 7 + order */
+    int32_t order;       /* rate-block states */
+    int32_t n_models;    /* rate models run (4 adaptive, else 1) */
+    int32_t i0;          /* filter-state row of z1 (z2 is row i0 + 2) */
+    int32_t auto_prior;  /* the prior of [x, vx, y, vy] waits for the first signal */
+    int32_t status;      /* 0 ok, 1 warning, 2 lost */
+    int32_t lost;        /* 1: lost (message in lost_message); every step refuses */
+    double theta0[GYRO_OBS_NPAR], scale[GYRO_OBS_NPAR];
+    double wx, wy;       /* sqrt(kxx_0), sqrt(kyy_0), rad/s */
+    double hgain[2];     /* z = hgain * (x[i0], x[i0 + 2]): [1, 1] or [wx, wy] */
+    double MgT[5][16];   /* d(A_aug xi)/d(p, Omega_z), rows 1 and 3 ([4][6], [4][14] per step) */
+    GyroMonitorLimits lim;
+    /* rate models over the step h_cached (gyro_observer_set_step) */
+    double h_cached, qpar;
+    double Fr[GYRO_OBS_MMAX][GYRO_OBS_RMAX][GYRO_OBS_RMAX];
+    double Qr[GYRO_OBS_MMAX][GYRO_OBS_RMAX][GYRO_OBS_RMAX];
+    double Pi[GYRO_OBS_MMAX][GYRO_OBS_MMAX];
+    /* state: the combined estimate, each rate model's filter, probabilities */
+    double x[GYRO_OBS_NMAX], P[GYRO_OBS_NMAX][GYRO_OBS_NMAX];
+    double xs[GYRO_OBS_MMAX][GYRO_OBS_NMAX];
+    double Ps[GYRO_OBS_MMAX][GYRO_OBS_NMAX][GYRO_OBS_NMAX];
+    double mu[GYRO_OBS_MMAX]; /* model probabilities after the last correction */
+    double c[GYRO_OBS_MMAX];  /* ... predicted to the next one */
+    double peak[2];           /* running peak |z1|, |z2| */
+    double nu2[2];            /* EWMA of squared innovations (< 0: not started) */
+    GyroMonitor mon;
+    double t;                 /* s since construction */
+    char lost_message[GYRO_OBS_MESSAGE];
+} GyroObserver;
+
+/* Results of the calls below that take a message buffer. */
+enum {
+    GYRO_OBS_STEP_OK = 0,      /* status 0 */
+    GYRO_OBS_STEP_WARNING = 1, /* status 1: gyro_observer_warning says why */
+    GYRO_OBS_STEP_LOST = 2,    /* the filter was lost in this step: msg says why */
+    GYRO_OBS_BAD_INPUT = -1,   /* a non-finite input or step: nothing changed */
+    GYRO_OBS_TOO_COARSE = -2,  /* the step aliases the resonance: nothing changed */
+    GYRO_OBS_REFUSED = -3      /* lost before: msg repeats why */
+};
+
+/* Why a tuning is unusable (names and remedies; non-zero), or 0. */
+int gyro_observer_tuning_problems(const GyroObserverTuning *tun, char *msg, size_t n);
+
+/* Build an observer from a parameter guess, Omega_z_0 (rad/s), pair (1 or 2) and tuning;
+ * non-zero with msg naming the value and the remedy when they are unusable. */
+int gyro_observer_init(GyroObserver *o, const GyroParams *guess, double Omega_z_0, int pair,
+                       const GyroObserverTuning *tun, char *msg, size_t n);
+
+/* One step: correct with (z1, z2) at t (eq. 8), propagate to t + h with ux, uy (N) held
+ * (eq. 5), judge. Returns GYRO_OBS_* (msg for the negative ones and LOST). */
+int gyro_observer_step(GyroObserver *o, double ux, double uy, double z1, double z2, double h,
+                       char *msg, size_t n);
+
+/* The two halves of a step (filterpy's update() and predict()); the same codes. */
+int gyro_observer_update(GyroObserver *o, double z1, double z2, double h, char *msg, size_t n);
+int gyro_observer_predict(GyroObserver *o, double ux, double uy, double h, char *msg,
+                          size_t n);
+
+/* The exact held-input step of eq. 5 of a scaled plant state s = [x, vx/wx, y, vy/wy] at
+ * theta, Omega_z, ux, uy held over h: s1 = s(t + h), Phi = ds1/ds (4x4), S = ds1/d(p,
+ * Omega_z) (4x8), in the filter's scaling. The rate models' predict shares one per step. */
+void gyro_observer_held_step(const GyroObserver *o, const double theta[GYRO_OBS_NPAR],
+                             double Omega_z, const double s[4], double ux, double uy, double h,
+                             double s1[4], double Phi[4][4], double S[4][8]);
+
+/* out[20] = [x, vx, y, vy] (m, m/s), Omega_z, kxx, kyy, kxy, dxx, dyy, dxy, m, then the
+ * 1-sigmas of those 8 (m by the delta method from 1/m). */
+void gyro_observer_outputs(const GyroObserver *o, double out[20]);
+
+/* p[4] = P(the rate is constant / rough / slow / agile): the adaptive set's predicted
+ * model probabilities; a fixed model 1 for its kind (agile for tracking); expert all 0. */
+void gyro_observer_rate_probabilities(const GyroObserver *o, double p[4]);
+
+/* The warning of status 1 in words (0 when the status is not 1). */
+int gyro_observer_warning(const GyroObserver *o, char *msg, size_t n);
+
+/* A state from outside (a restored FMU state): non-zero with msg when it is not one this
+ * tuning, pair and guess could have made, or holds non-finite numbers. */
+int gyro_observer_restored_problem(const GyroObserver *o, const GyroParams *guess,
+                                   double Omega_z_0, int pair, const GyroObserverTuning *tun,
+                                   char *msg, size_t n);
+
+/* Set the constants of the filter's scaling (wx, wy, theta0, scale) and what derives from
+ * them (hgain, MgT, monitor limits); gyro_observer_init does it from the guess, a restored
+ * state from the numbers it saved. */
+void gyro_observer_set_scaling(GyroObserver *o, double wx, double wy,
+                               const double theta0[GYRO_OBS_NPAR],
+                               const double scale[GYRO_OBS_NPAR]);
+
+/* The rate models' transitions Fr, process noise Qr, switching probabilities Pi and the
+ * parameter random walk qpar over a step h (cached: step and predict call it when h
+ * changes). */
+void gyro_observer_set_step(GyroObserver *o, double h);
+
+/* The IMM's two steps on the rate models' filters (xs, Ps), Bar-Shalom et al. eqs.
+ * 11.6.6-6 to -10 and -21, -22: mix sets c = Pi' mu and restarts each filter j from the
+ * mixture of all with weights mu_i Pi[i][j] / c_j; combine writes the mixture of the
+ * filters with weights w (mean, and covariance with the spread of the means) to x, P. */
+void gyro_observer_mix(GyroObserver *o);
+void gyro_observer_combine(const GyroObserver *o, const double *w, double *x,
+                           double P[GYRO_OBS_NMAX][GYRO_OBS_NMAX]);
+
+/* Auto prior started by the drive: 1-sigma of [x, y] as this fraction of the static
+ * deflection b |u| / k of the guess. */
+extern const double gyro_observer_prior_fraction;
+
+/* Monitor check alone: 1 if P (n x n, row stride GYRO_OBS_NMAX) has a Cholesky factor
+ * (positive pivots, or a zero pivot with its whole column zero). */
+int gyro_observer_cholesky_ok(const double *P, int n);
+
+/* float(k!) for k <= 47 (the Frechet series' weights); -1 beyond. */
+double gyro_observer_factorial(int k);
+
+size_t gyro_observer_size(void);
+
+#endif
