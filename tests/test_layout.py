@@ -1,7 +1,8 @@
 """The layout is the architecture: each subpackage one concern, imports running one way.
 
-Ranks, lowest first: core (the C core through ctypes), cosim (the generic FMI master) and
-studies know nothing of each other; model (physics and its FMU interfaces) builds on core;
+Ranks, lowest first: core (the C core through ctypes) and studies know nothing of each
+other; cosim (the generic FMI master, its stepping loop in the core) and model (physics and
+its FMU interfaces) build on core;
 estimation (the observer and its FMU interface) on model; fmu (native and pythonfmu
 builds of those interfaces) on both; doctor on fmu; system
 (scenarios, runs, SSP, container, sweeps) and selfcal on those below; cli on all; the
@@ -18,7 +19,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "gyro_fmu"
-RANKS = {"errors": -1, "core": 0, "cosim": 0, "studies": 0, "model": 1,
+RANKS = {"errors": -1, "core": 0, "studies": 0, "cosim": 1, "model": 1,
          "estimation": 2, "fmu": 3, "doctor": 4, "system": 5,
          "selfcal": 5, "spec": 6, "cli": 7, "fmu_src": 8}
 #: Left for 0.1 FMUs only: raises a message on import (see its docstring).

@@ -33,7 +33,7 @@ from .instances import (
     units_of,
     variable,
 )
-from .stepping import GET, SET, step_loop
+from .stepping import GET, SET, make_plan, step_loop
 from .system import (
     Component,
     Connection,
@@ -148,7 +148,7 @@ def result_memory_limit() -> int:
         return 8 << 30
 
 
-#: Communication steps per call of the compiled loop (~0.1 s of the default system).
+#: Communication steps per call of the C loop (~0.1 s of the default system).
 _CHUNK = 2000
 
 
@@ -184,7 +184,7 @@ _STATUS = {2: "fmi2Discard", 3: "fmi2Error", 4: "fmi2Fatal", 5: "fmi2Pending"}
 
 
 class _Plan:
-    """Memory layout and raw FMI entry points of the compiled stepping loop (stepping.py).
+    """Memory layout and raw FMI entry points of the C stepping loop (stepping.py).
 
     Row layout: time, then each instance's outputs as one contiguous block (the recorded
     ones first, in recording order, then those read only for connections), so each
@@ -242,6 +242,7 @@ class _Plan:
             _entry_points([inst.slave for inst in instances.values()], "fmi2DoStep"),
             _components([inst.slave for inst in instances.values()]),
         )
+        self.plan = make_plan(*self.args)
         check_result_memory(n_steps + 1, ncol, max_result_bytes)
         self.data = np.empty((n_steps + 1, ncol))
         wanted = [0] + [column[r] for r in recorded]
@@ -255,7 +256,7 @@ class _Plan:
         n = self.data.shape[0] - 1
         for first in range(0, n + 1, _CHUNK):
             outcome = step_loop(self.data, start_time, step, first,
-                                min(first + _CHUNK - 1, n), *self.args)
+                                min(first + _CHUNK - 1, n), self.plan)
             if outcome[1] >= 0 or interrupted():
                 return outcome
         return outcome

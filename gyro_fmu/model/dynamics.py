@@ -2,7 +2,7 @@
 
 In co-simulation every input (ux, uy and Omega_z) is held constant over a
 communication step (zero-order hold). Over such a step the model of
-`system_matrix_of` (the one place the equations of motion are written) is
+the C core's gyro_system_matrix (the one place the equations of motion are written) is
 linear time-invariant, so the step is solved exactly with one matrix
 exponential. Plant and observer both build their matrices with it: a mismatch
 in how they treat the input between samples biases the rate estimate
@@ -16,7 +16,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
 
 from ..core.library import Params, core
 from .parameters import GyroParameters
@@ -30,44 +29,6 @@ def state_scaling(p: GyroParameters) -> np.ndarray:
     """
     w0 = math.sqrt(abs(p.kxx)) or 1.0
     return np.array([1.0, 1.0 / w0, 1.0, 1.0 / w0])
-
-
-@njit(cache=True)
-def system_matrix_of(kxx, kyy, kxy, dxx, dyy, dxy, Omega_z):  # pragma: no cover
-    """Continuous-time 4x4 matrix A of the state [x, x', y, y'] (patent eqs. 3-4).
-
-    The printed eqs. 1-5 mix up subscripts; the model implemented is the one the
-    observability matrix C1 of eq. 7 implies (k's in 1/s^2, d's in 1/s, Omega_z in rad/s):
-        x'' = -kxx x - kxy y - dxx x' - dxy y' + 2 Omega_z y' + ux/m
-        y'' = -kxy x - kyy y - dxy x' - dyy y' - 2 Omega_z x' + uy/m
-    The plant's is the C core's gyro_system_matrix; this compiled copy is the observer's
-    until its kernels move to the core (numba's last user); parameters.system_matrix is
-    its numpy entry point.
-    """
-    A = np.zeros((4, 4))
-    A[0, 1] = 1.0
-    A[1, 0] = -kxx
-    A[1, 1] = -dxx
-    A[1, 2] = -kxy
-    A[1, 3] = 2.0 * Omega_z - dxy
-    A[2, 3] = 1.0
-    A[3, 0] = -kxy
-    A[3, 1] = -dxy - 2.0 * Omega_z
-    A[3, 2] = -kyy
-    A[3, 3] = -dyy
-    return A
-
-
-@njit(cache=True)
-def inf_norm_rows(M, rows, cols):  # pragma: no cover
-    """Infinity norm of the block M[:rows, :cols] (max absolute row sum)."""
-    norm = 0.0
-    for i in range(rows):
-        r = 0.0
-        for j in range(cols):
-            r += abs(M[i, j])
-        norm = max(norm, r)
-    return norm
 
 
 def held_input_maps(p: GyroParameters, Omega_z: float, h: float) -> tuple[np.ndarray, np.ndarray]:

@@ -168,13 +168,15 @@ def preset(name: str = DEFAULT_PRESET, **overrides: float) -> GyroParameters:
 def system_matrix(p: GyroParameters, Omega_z: float = 0.0) -> np.ndarray:
     """Continuous-time matrix A of state [x, vx, y, vy] (consistent form of eqs. 3-4).
 
-    The equations are written once, in the compiled dynamics.system_matrix_of (which
-    the plant's and the observer's kernels call); this is its entry point for numpy.
+    The equations are written once, in the C core's gyro_system_matrix (which the plant
+    and the observer call); this is its entry point for numpy.
     """
-    from .dynamics import system_matrix_of  # imported here: dynamics imports this module
+    from ..core.library import core
 
-    return system_matrix_of(float(p.kxx), float(p.kyy), float(p.kxy), float(p.dxx),
-                            float(p.dyy), float(p.dxy), float(Omega_z))
+    A = np.empty((4, 4))
+    core().gyro_system_matrix(_c_params(p), float(Omega_z),
+                              A.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+    return A
 
 
 def _c_params(p: GyroParameters) -> object:
