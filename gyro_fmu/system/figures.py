@@ -55,14 +55,29 @@ def fig3_states(result: CoSimulationResult, path: Path, window: float = 0.002) -
     return path
 
 
+#: Points drawn per curve of a long run: more than the figure has pixels across (1210)
+#: changes nothing on the page and cost 1.2 KB and ~0.1 ms of drawing per step.
+MAX_POINTS = 2000
+
+
+def plotted(n: int) -> np.ndarray:
+    """Row indices a figure draws of n rows: all of a short run; of a long one the first
+    MAX_POINTS (where the observer converges) and MAX_POINTS spread over the whole run."""
+    if n <= 2 * MAX_POINTS:
+        return np.arange(n)
+    spread = np.linspace(0, n - 1, MAX_POINTS).round().astype(np.intp)
+    return np.union1d(np.arange(MAX_POINTS), spread)
+
+
 def fig4_estimates(result: CoSimulationResult, truth: GyroParameters, path: Path) -> Path:
     """Fig. 4A-4H: the 8 estimates (with 1-sigma band) against their truths over time."""
-    t = result["time"] * 1e3
+    rows = plotted(len(result["time"]))
+    t = result["time"][rows] * 1e3
     fig, axes = plt.subplots(4, 2, figsize=(11, 11), sharex=True)
     for ax, name in zip(axes.flat, UNKNOWNS, strict=True):
         column = "observer.Omega_hat" if name == "Omega_z" else f"observer.{name}_hat"
-        est, sig = result[column], result[f"observer.sigma_{name}"]
-        true = (result["rate.Omega_z"] if name == "Omega_z"
+        est, sig = result[column][rows], result[f"observer.sigma_{name}"][rows]
+        true = (result["rate.Omega_z"][rows] if name == "Omega_z"
                 else np.full(t.shape, getattr(truth, name)))
         ax.fill_between(t, est - sig, est + sig, color="r", alpha=0.15, lw=0, label="±1 sigma")
         ax.plot(t, true, "k-", lw=1.5, label="truth")
