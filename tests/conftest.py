@@ -26,7 +26,8 @@ def models_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="session")
 def pythonfmu_models(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The pythonfmu flavour of the native FMUs (GyroPlant, TwoToneDrive, RateProfile):
+    """The pythonfmu flavour of the native FMUs (GyroPlant, TwoToneDrive, RateProfile,
+    GyroObserver):
     thin adapters over the same C core, built on request."""
     from gyro_fmu.fmu.build import NATIVE_NAMES
 
