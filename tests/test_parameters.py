@@ -57,3 +57,18 @@ def test_overrides_apply_and_bad_names_or_values_are_named():
         preset("nope")
     with pytest.raises(ParameterError, match=r"mass m=-1\.0 kg must be > 0"):
         validate_for_plant(preset(m=-1.0))
+
+
+def test_the_parameter_limits_are_the_cores() -> None:
+    """K_MAX and D_MAX are written twice: in the declarations (the FMUs' max, generated
+    before the core is compiled) and in the core (GYRO_K_MAX, GYRO_D_MAX, its checks).
+    They must agree, or the FMU and the library refuse at different values."""
+    import re
+    from pathlib import Path
+
+    from gyro_fmu.model.parameters import D_MAX, K_MAX
+
+    header = (Path(__file__).resolve().parents[1] / "fmu_src" / "core" / "gyro_plant.h"
+              ).read_text()
+    found = dict(re.findall(r"#define GYRO_([KD]_MAX) (\S+)", header))
+    assert float(found["K_MAX"]) == K_MAX and float(found["D_MAX"]) == D_MAX, found
