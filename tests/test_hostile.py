@@ -372,7 +372,9 @@ def test_sigterm_is_handled_like_ctrl_c_and_leaves_no_unpacked_fmus(tmp_path):
     dead.mkdir()
     env = {**os.environ, "TMPDIR": str(tmp)}
     out = tmp_path / "run"
-    proc = subprocess.Popen([sys.executable, "-m", "gyro_fmu.cli", "run", "--stop-time", "1",
+    # 4 s of simulated time: about 9 s of stepping with the native FMUs (2.3 s per s), so
+    # the signal lands inside the co-simulation (at 1 s it came after the run, measured)
+    proc = subprocess.Popen([sys.executable, "-m", "gyro_fmu.cli", "run", "--stop-time", "4",
                              "--no-figures", "--out", str(out)], env=env, cwd=tmp_path,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
