@@ -137,8 +137,8 @@ def fresh_process(name: str, stop: float) -> tuple[float, float, float, float, f
 def selfcal_times(repeat: int) -> tuple[float, float, float]:
     """Median wall of a whole default self-calibration in process (s), the two-FMU
     co-simulation's cost per step (us, 0.5 s run) and the implied FMU calibration (s)."""
-    from gyro_fmu.selfcal.loops import LoopSettings
-    from gyro_fmu.selfcal.resonator import ResonatorParameters
+    from gyro_fmu.model.loops import LoopSettings
+    from gyro_fmu.model.resonator import ResonatorParameters
     from gyro_fmu.selfcal.run import run_fmus as run_selfcal_fmus
     from gyro_fmu.selfcal.sequence import SelfCalConfig, self_calibrate
 

@@ -22,9 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
+from gyro_fmu.model.resonator import EARTH_RATE, ResonatorParameters
 from gyro_fmu.selfcal.alarms import CalibrationRefusedError
 from gyro_fmu.selfcal.ratetable import rate_table
-from gyro_fmu.selfcal.resonator import EARTH_RATE, ResonatorParameters
 from gyro_fmu.selfcal.sequence import FeedForward, SelfCalConfig, self_calibrate
 
 NOISE = 2.5e-4  #: V per pick-off sample: Allan deviation 13 deg/h at 1 s (rate_noise)
@@ -158,9 +158,9 @@ def drift() -> None:
 def rate_noise(noise: float = NOISE, duration: float = 80.0,
                figure: Path | None = Path("runs/selfcal_accuracy/allan.png")) -> None:
     """Allan deviation of the normal (mode 1) read-out for white pick-off noise."""
+    from gyro_fmu.model.loops import LoopSettings
     from gyro_fmu.selfcal.allan import allan_deviation
     from gyro_fmu.selfcal.inprocess import CarrierSimulation
-    from gyro_fmu.selfcal.loops import LoopSettings
 
     print(f"\n## Rate noise of the read-out: Allan deviation, pick-off noise {noise} V "
           f"per sample, {duration:g} s record")

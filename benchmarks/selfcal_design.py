@@ -19,10 +19,10 @@ from dataclasses import replace
 
 import numpy as np
 
+from gyro_fmu.model.resonator import ResonatorParameters
 from gyro_fmu.selfcal.alarms import CalibrationRefusedError
 from gyro_fmu.selfcal.design import design
 from gyro_fmu.selfcal.ratetable import rate_table
-from gyro_fmu.selfcal.resonator import ResonatorParameters
 from gyro_fmu.selfcal.sequence import FeedForward, SelfCalConfig, self_calibrate
 
 NOISE = 2.5e-4

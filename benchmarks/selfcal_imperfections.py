@@ -39,11 +39,11 @@ from pathlib import Path
 
 import numpy as np
 
+from gyro_fmu.model.loops import LoopSettings
+from gyro_fmu.model.resonator import K_B, ResonatorParameters
 from gyro_fmu.selfcal.allan import allan_deviation
 from gyro_fmu.selfcal.inprocess import CarrierSimulation
-from gyro_fmu.selfcal.loops import LoopSettings
 from gyro_fmu.selfcal.ratetable import rate_table
-from gyro_fmu.selfcal.resonator import K_B, ResonatorParameters
 from gyro_fmu.selfcal.sequence import (
     FeedForward,
     SelfCalConfig,

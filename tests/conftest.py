@@ -6,19 +6,12 @@ from pathlib import Path
 
 import pytest
 
-from gyro_fmu.fmu.build import PACKAGE_DIR, build_all
-from gyro_fmu.fmu.kernel_cache import drop_suspect_caches
-
-
-def pytest_sessionstart(session: pytest.Session) -> None:
-    """numba validates a cached kernel against its own file only: after an edit of a
-    kernel it inlines from another file it would load old code. Drop such caches."""
-    drop_suspect_caches(PACKAGE_DIR)
+from gyro_fmu.fmu.build import build_all
 
 
 @pytest.fixture(scope="session")
 def models_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Every FMU built by pythonfmu from fmu_src/ into a fresh folder."""
+    """Every FMU (the native ones, prebuilt in the package) copied into a fresh folder."""
     dest = tmp_path_factory.mktemp("models")
     build_all(dest)
     return dest
@@ -26,9 +19,8 @@ def models_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="session")
 def pythonfmu_models(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The pythonfmu flavour of the native FMUs (GyroPlant, TwoToneDrive, RateProfile,
-    GyroObserver):
-    thin adapters over the same C core, built on request."""
+    """The pythonfmu flavour of every FMU: thin adapters over the same C core, built on
+    request."""
     from gyro_fmu.fmu.build import NATIVE_NAMES
 
     dest = tmp_path_factory.mktemp("pythonfmu")

@@ -23,7 +23,7 @@ from gyro_fmu.cosim.master import (
     CoSimulationError,
     run_cosimulation,
 )
-from gyro_fmu.fmu.build import ensure_current, prebuilt_fmu, stale_sources
+from gyro_fmu.fmu.build import ensure_current, is_pythonfmu, prebuilt_fmu, stale_sources
 from gyro_fmu.system.run import run_fmus
 from gyro_fmu.system.scenario import scenario
 
@@ -111,24 +111,25 @@ def test_an_archive_is_unpacked_once_until_it_changes(models_dir, tmp_path):
     assert result["drive.ux"][-1] != 0.0
 
 
-def test_a_stale_fmu_is_found_and_rebuilt(models_dir, tmp_path):
+def test_a_stale_fmu_is_found_and_rebuilt(pythonfmu_all, tmp_path):
     """A pythonfmu FMU built from older sources would run its old adapter on this
-    gyro_fmu; a native FMU that is not the package's is replaced by the package's."""
+    gyro_fmu: rebuilt in its flavour; a native FMU that is not the package's is replaced
+    by the package's."""
     fmu = tmp_path / "GyroLoops.fmu"
-    shutil.copy(models_dir / "GyroLoops.fmu", fmu)
+    shutil.copy(pythonfmu_all / "GyroLoops.fmu", fmu)
     assert stale_sources(fmu, "GyroLoops") == []
-    with zipfile.ZipFile(models_dir / "GyroLoops.fmu") as old, \
+    with zipfile.ZipFile(pythonfmu_all / "GyroLoops.fmu") as old, \
             zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as new:
         for item in old.infolist():
             data = old.read(item.filename)
-            if item.filename == "resources/gyro_fmu/selfcal/loops.py":
+            if item.filename == "resources/gyro_fmu/model/loops.py":
                 data += b"# an older version\n"
             new.writestr(item, data)
         new.writestr("resources/gyro_fmu/removed_since.py", b"")
     assert stale_sources(fmu, "GyroLoops") == [
-        "resources/gyro_fmu/removed_since.py", "resources/gyro_fmu/selfcal/loops.py"]
+        "resources/gyro_fmu/model/loops.py", "resources/gyro_fmu/removed_since.py"]
     assert ensure_current(("GyroLoops",), tmp_path) == [fmu]
-    assert stale_sources(fmu, "GyroLoops") == []
+    assert stale_sources(fmu, "GyroLoops") == [] and is_pythonfmu(fmu)
     assert ensure_current(("GyroLoops",), tmp_path) == []
     native = tmp_path / "TwoToneDrive.fmu"
     native.write_bytes(prebuilt_fmu("TwoToneDrive", 3).read_bytes())  # not the FMI 2.0 one

@@ -14,14 +14,14 @@ import numpy as np
 import pytest
 
 from gyro_fmu.cli import main
+from gyro_fmu.model.loops import LoopsError, LoopSettings
+from gyro_fmu.model.resonator import ResonatorParameters, system_matrices
 from gyro_fmu.selfcal.alarms import CalibrationRefusedError
 from gyro_fmu.selfcal.allan import allan_deviation
 from gyro_fmu.selfcal.estimator import transfer
 from gyro_fmu.selfcal.inprocess import CarrierSimulation
-from gyro_fmu.selfcal.loops import LoopsError, LoopSettings
 from gyro_fmu.selfcal.phasors import PhasorError, phasors, phasors_and_variances
 from gyro_fmu.selfcal.ratetable import rate_table
-from gyro_fmu.selfcal.resonator import ResonatorParameters, system_matrices
 from gyro_fmu.selfcal.sequence import FeedForward, SelfCalConfig, self_calibrate
 
 #: Short records, few sidebands: 0.4 Hz spacing keeps 2 Hann bins per step in 5 s.
@@ -188,10 +188,14 @@ def test_earth_rate_is_separated_from_bias_by_mode_reversal() -> None:
 
 
 def test_bad_settings_are_named() -> None:
+    from gyro_fmu.model.loops import LoopsModel
+
     with pytest.raises(LoopsError, match="mode=3"):
-        LoopSettings(mode=3).as_array()
+        LoopsModel(LoopSettings(mode=3))
     with pytest.raises(LoopsError, match="pll_bandwidth"):
-        LoopSettings(pll_bandwidth=-1.0).as_array()
+        LoopsModel(LoopSettings(pll_bandwidth=-1.0))
+    with pytest.raises(LoopsError, match="sideband_count=2.5 must be a whole number"):
+        LoopsModel(LoopSettings(sideband_count=2.5))
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -224,7 +228,7 @@ def test_cubic_stiffness_step_matches_an_independent_integration() -> None:
     eqs. 1 + 20-21, held drive, 5 ms at 1 Hz of cubic frequency shift per um."""
     from scipy.integrate import solve_ivp
 
-    from gyro_fmu.selfcal.resonator import ResonatorModel
+    from gyro_fmu.model.resonator import ResonatorModel
 
     p = replace(TRUE, phi_x=0.0, phi_y=0.0, k3x=4.2e17, k3y=-3e17)
     h, n = 25e-6, 200

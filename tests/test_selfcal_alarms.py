@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 from gyro_fmu.cli import main
+from gyro_fmu.model.loops import LoopsError, LoopSettings
+from gyro_fmu.model.resonator import ResonatorParameters
 from gyro_fmu.selfcal import sequence
 from gyro_fmu.selfcal.alarms import CalibrationRefusedError, pickoff_noise
 from gyro_fmu.selfcal.design import design, loops_for, plant_gain, spacing_for, step_for
-from gyro_fmu.selfcal.loops import LoopsError, LoopSettings
-from gyro_fmu.selfcal.resonator import ResonatorParameters
 from gyro_fmu.selfcal.sequence import choose_record, self_calibrate
 
 TRUE = ResonatorParameters()

@@ -1,7 +1,9 @@
-"""GyroResonator.fmu and GyroLoops.fmu: thin adapters of the self-calibration library.
+"""GyroResonator.fmu and GyroLoops.fmu, native and pythonfmu: the same C core as the
+self-calibration library.
 
-The co-simulation of the two FMUs through the fmpy master equals the in-process
-CarrierSimulation bit for bit; their state is exact; bad values are refused.
+The co-simulation of the two FMUs through the project's master equals the in-process
+CarrierSimulation bit for bit, in both flavours; their state is exact; bad values are
+refused (the native FMUs' call-by-call semantics: test_native_fmi_layer.py).
 """
 
 from __future__ import annotations
@@ -15,10 +17,11 @@ from fmpy import read_model_description
 from fmu_harness import Instance, assert_bad_input_refused, assert_state_round_trip
 
 from gyro_fmu.fmu.slave import UNITS
+from gyro_fmu.model.loops import OUTPUTS, LoopSettings, LoopsModel
+from gyro_fmu.model.resonator import ResonatorModel, ResonatorParameters
+from gyro_fmu.model.selfcal_interfaces import LOOPS_RENAMED, field_comments
 from gyro_fmu.selfcal.inprocess import COLUMNS, CarrierSimulation
-from gyro_fmu.selfcal.loops import OUTPUTS, LoopSettings, LoopsModel
-from gyro_fmu.selfcal.resonator import ResonatorModel, ResonatorParameters
-from gyro_fmu.selfcal.run import LOOPS_RENAMED, field_comments, run_fmus
+from gyro_fmu.selfcal.run import run_fmus
 
 H = 25e-6
 
@@ -35,13 +38,15 @@ def _assert_bit_identical(fmu, ref):
     (ResonatorParameters(noise=1e-3), LoopSettings(mode=2, sideband_index=0.05,
                                                    amplitude=0.8), 0.0, 3),
 ], ids=["mode1-noise-rate", "mode0-ring", "mode2-sidebands"])
-def test_fmu_cosimulation_equals_carrier_simulation_bit_for_bit(models_dir, resonator, settings,
-                                                                Omega_z, seed):
+@pytest.mark.parametrize("flavour", ["native", "pythonfmu"])
+def test_fmu_cosimulation_equals_carrier_simulation_bit_for_bit(request, flavour, resonator,
+                                                                settings, Omega_z, seed):
+    models = request.getfixturevalue("models_dir" if flavour == "native" else "pythonfmu_all")
     duration, record_from = 0.05, 0.01
     ref = CarrierSimulation(resonator, settings, seed=seed, step=H, Omega_z=Omega_z).run(
         duration, record_from=record_from)
     fmu = run_fmus(resonator, settings, duration, step=H, Omega_z=Omega_z, seed=seed,
-                   record_from=record_from, models_dir=models_dir)
+                   record_from=record_from, models_dir=models)
     assert fmu.step == H
     assert fmu.time[0] == pytest.approx(record_from) and fmu.time[-1] == pytest.approx(duration)
     _assert_bit_identical(fmu, ref)
@@ -125,9 +130,49 @@ BAD_INPUTS = [
 
 @pytest.mark.parametrize(("name", "params", "action", "message"), BAD_INPUTS,
                          ids=[f"{r[0]}-{r[2][0]}-{r[2][1]}" for r in BAD_INPUTS])
-def test_bad_input_is_refused_with_a_message_and_never_crashes(models_dir, name, params, action,
-                                                              message):
-    assert_bad_input_refused(models_dir / f"{name}.fmu", params, action, message, H)
+def test_bad_input_is_refused_with_a_message_and_never_crashes(pythonfmu_all, name, params,
+                                                              action, message):
+    """The pythonfmu flavour's refusals; the native FMUs': the next test and
+    test_native_fmi_layer.py."""
+    assert_bad_input_refused(pythonfmu_all / f"{name}.fmu", params, action, message, H)
+
+
+@pytest.mark.parametrize(("name", "params", "message"), [
+    ("GyroResonator", {"Q_x": 0.0}, "Q_x=0.0 must be > 0"),
+    ("GyroResonator", {"kxy": 1e9}, "kxy=1000000000.0 1/s^2 makes the stiffness indefinite"),
+    ("GyroResonator", {"phi_y": 1.4, "beta_x": 0.2, "m_modal": 1e-9, "dxy": 10.0},
+     "dxy=10.0 1/s makes the damping indefinite"),
+    ("GyroLoops", {"amplitude_setpoint": 0.0, "drive_limit": 0.0},
+     "amplitude=0.0 must be > 0; drive_limit=0.0 must be > 0"),
+], ids=["Q", "kxy", "dxy", "loops-gains"])
+@pytest.mark.parametrize("version", [2, 3])
+def test_the_native_fmus_refuse_the_librarys_values_in_its_words(name, params, message,
+                                                                 version):
+    """The native FMUs check with the core, which the library calls too: the same values
+    refused at initialization, in the library's words; every output NaN after."""
+    from fmpy.fmi1 import FMICallException
+    from native_host import NativeRun
+
+    from gyro_fmu.fmu.build import prebuilt_fmu
+
+    run = NativeRun(prebuilt_fmu(name, version))
+    run.set(**params)
+    with pytest.raises(FMICallException):
+        run.initialize()
+    assert message in [m for s, m in run.messages if s == 3][-1]
+    outputs = ["Vpx", "Vpy"] if name == "GyroResonator" else list(OUTPUTS)
+    assert all(math.isnan(v) for v in run.get(outputs))
+    run.close()
+    library = (ResonatorParameters, LoopSettings)[name == "GyroLoops"]
+    field_of = {fmu: f for f, fmu in LOOPS_RENAMED.items()}
+    fields = {field_of.get(k, k): v for k, v in params.items()}
+    if library is ResonatorParameters:
+        from gyro_fmu.model.resonator import check_resonator
+
+        problems = check_resonator(ResonatorParameters(**fields))
+    else:
+        problems = LoopSettings(**fields).problems()
+    assert message in "; ".join(problems)
 
 
 def test_selfcal_through_the_fmus_equals_the_in_process_calibration(models_dir):

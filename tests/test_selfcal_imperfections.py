@@ -8,10 +8,10 @@ from dataclasses import replace
 
 import pytest
 
+from gyro_fmu.model.resonator import ResonatorParameters
 from gyro_fmu.selfcal.alarms import CalibrationRefusedError
 from gyro_fmu.selfcal.design import design
 from gyro_fmu.selfcal.ratetable import rate_table
-from gyro_fmu.selfcal.resonator import ResonatorParameters
 from gyro_fmu.selfcal.sequence import FeedForward, self_calibrate
 
 TRUE = ResonatorParameters()

@@ -16,7 +16,6 @@
 #define KMAX GYRO_OBS_KMAX
 #define IPAR GYRO_OBS_IPAR
 #define IOM GYRO_OBS_IOM
-#define GYRO_PI 3.141592653589793 /* math.pi */
 
 /* Longer held steps (||A h||_inf > STEP_NORM) are split into equal sub-steps. */
 static const double STEP_NORM = 0.5;

@@ -102,15 +102,7 @@ static const char *const AXES[6][3] = {
     {"dyy", "y-axis damping", "1/s"}, {"dxy", "cross-axis damping", "1/s"}};
 static const double NOMINAL[6] = {1e8, 1e8, 1e7, 10.0, 10.0, 1.0};
 
-/* Append printf-style text to msg, "; "-separated. */
-static void add(char *msg, size_t n, const char *text) {
-    size_t used = strlen(msg);
-    if (used && used + 2 < n) {
-        strcat(msg, "; ");
-        used += 2;
-    }
-    if (used < n) snprintf(msg + used, n - used, "%s", text);
-}
+#define add gyro_text_add
 
 int gyro_params_problems(const GyroParams *p, char *msg, size_t n) {
     const double v[7] = {p->kxx, p->kyy, p->kxy, p->dxx, p->dyy, p->dxy, p->m};

@@ -27,3 +27,12 @@ const char *gyro_real_text(double v, char buf[GYRO_REAL_TEXT]) {
     if (!strchr(buf, '.')) strcat(buf, ".0");
     return buf;
 }
+
+void gyro_text_add(char *msg, size_t n, const char *text) {
+    size_t used = strlen(msg);
+    if (used && used + 2 < n) {
+        strcat(msg, "; ");
+        used += 2;
+    }
+    if (used < n) snprintf(msg + used, n - used, "%s", text);
+}

@@ -79,10 +79,9 @@ CAPABILITIES = {
 #: its slave class declares; `load_slave` reads it.
 FMU_NAMES = ("GyroPlant", "TwoToneDrive", "RateProfile", "GyroObserver", "GyroResonator",
              "GyroLoops")
-#: The native C FMUs (gyro_fmu.fmu.native), prebuilt in the package.
-NATIVE_NAMES = ("GyroPlant", "TwoToneDrive", "RateProfile", "GyroObserver")
-#: The FMUs built by pythonfmu (the other ones on request: flavour="pythonfmu").
-PYTHONFMU_NAMES = tuple(n for n in FMU_NAMES if n not in NATIVE_NAMES)
+#: The native C FMUs (gyro_fmu.fmu.native), prebuilt in the package: every one (the
+#: pythonfmu flavour of each is built on request: flavour="pythonfmu").
+NATIVE_NAMES = FMU_NAMES
 FLAVOURS = ("native", "pythonfmu")
 #: Prefix of the private module names `load_slave` gives the slave sources.
 SLAVE_MODULE_PREFIX = "gyro_fmu_slave_"
@@ -176,7 +175,6 @@ def build_fmu(name: str, dest: Path = MODELS_DIR, reference: bool = True,
             f"no FMU source {script}: the FMU names are {list(FMU_NAMES)}"
         )
     from .docs import add_documentation
-    from .kernel_cache import add_to_fmu, drop_suspect_caches
 
     dest = Path(dest)
     dest.mkdir(parents=True, exist_ok=True)
@@ -194,9 +192,7 @@ def build_fmu(name: str, dest: Path = MODELS_DIR, reference: bool = True,
         if reference:
             from .reference import write_reference
 
-            drop_suspect_caches(PACKAGE_DIR)
-            write_reference(path)  # runs the FMU here: its kernels are compiled and cached
-        add_to_fmu(path, PACKAGE_DIR)
+            write_reference(path)
         add_documentation(path)
         final = dest / path.name
         os.replace(path, final)
@@ -218,45 +214,16 @@ def _install_loader(path: Path) -> None:
 def build_all(dest: Path = MODELS_DIR, names: tuple[str, ...] = FMU_NAMES,
               flavour: str = "native") -> list[Path]:
     """Put the named FMUs (all by default) into dest (see build_fmu)."""
-    paths = [build_fmu(name, dest, flavour=flavour) for name in names]
-    _ship_all_kernels([p for p in paths if _is_pythonfmu(p)])
-    return paths
+    return [build_fmu(name, dest, flavour=flavour) for name in names]
 
 
-def _is_pythonfmu(fmu: Path) -> bool:
+def is_pythonfmu(fmu: Path) -> bool:
+    """Whether fmu is of the pythonfmu flavour (it ships gyro_fmu in its resources)."""
     try:
         with zipfile.ZipFile(fmu) as z:
             return any(n.startswith("resources/gyro_fmu/") for n in z.namelist())
     except (OSError, zipfile.BadZipFile):
         return False
-
-
-def _ship_all_kernels(paths: list[Path]) -> list[Path]:
-    """Give every FMU the kernel caches of all of them.
-
-    Each FMU's reference run compiles only its own kernels, so one pass leaves the
-    FMUs built first without the later ones' caches (a fresh build: only
-    GyroObserver.fmu had the observer's). A non-Python host imports gyro_fmu from
-    whichever FMU it loads first, so every FMU must carry every cache. After all
-    reference runs the tree holds them all. An FMU that lacks some is completed in a
-    copy moved into place whole (another process may be reading it); one that has them
-    all is not touched.
-    """
-    from .kernel_cache import add_to_fmu, missing_from
-
-    for path in paths:
-        if not missing_from(path, PACKAGE_DIR):
-            continue
-        fd, temp = tempfile.mkstemp(suffix=".fmu", dir=path.parent)
-        os.close(fd)
-        try:
-            shutil.copy2(path, temp)
-            add_to_fmu(Path(temp), PACKAGE_DIR)
-        except BaseException:
-            Path(temp).unlink(missing_ok=True)
-            raise
-        os.replace(temp, path)
-    return paths
 
 
 def stale_sources(fmu: Path, name: str) -> list[str]:
@@ -294,18 +261,16 @@ def _size_and_crc_of(path: str, mtime_ns: int, size: int) -> tuple[int, int]:
 
 
 def ensure_current(names: tuple[str, ...] = FMU_NAMES, dest: Path = MODELS_DIR) -> list[Path]:
-    """Build the named FMUs that are missing from dest or stale (stale_sources); returns
-    the paths built."""
+    """Put the named FMUs into dest where they are missing or not the prebuilt native ones;
+    an FMU of the pythonfmu flavour there is kept (rebuilt in its flavour when its
+    sources changed: stale_sources). Returns the paths built."""
     dest = Path(dest)
     built = []
     for name in names:
         path = dest / f"{name}.fmu"
-        if name in NATIVE_NAMES:
-            if not path.exists() or _size_and_crc(path) != _size_and_crc(prebuilt_fmu(name)):
-                built.append(build_fmu(name, dest))
-        elif not path.exists() or stale_sources(path, name):
+        if path.exists() and is_pythonfmu(path):  # a flavour built on request: kept while
+            if stale_sources(path, name):           # its sources are current
+                built.append(build_fmu(name, dest, flavour="pythonfmu"))
+        elif not path.exists() or _size_and_crc(path) != _size_and_crc(prebuilt_fmu(name)):
             built.append(build_fmu(name, dest))
-    if any(_is_pythonfmu(p) for p in built):  # new caches belong in the current ones too
-        _ship_all_kernels([dest / f"{n}.fmu" for n in names
-                           if (dest / f"{n}.fmu").exists() and _is_pythonfmu(dest / f"{n}.fmu")])
     return built

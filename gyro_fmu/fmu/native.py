@@ -27,6 +27,7 @@ from xml.etree.ElementTree import Element, SubElement, indent, tostring
 
 from ..estimation.interface import OBSERVER
 from ..model.interfaces import PHYSICS_INTERFACES, FmuInterface
+from ..model.selfcal_interfaces import SELFCAL_INTERFACES
 from .macho import universal_macho
 from .units import UNITS
 
@@ -72,7 +73,7 @@ FLAGS = ["-std=c99", "-O2", "-g0", "-s", "-ffp-contract=off", "-fno-fast-math", 
 FMI_LAYER = ("instance.c", "fmi2.c", "fmi3.c")
 FMI_HEADERS = ("fmi2_api.h", "fmi3_api.h", "model.h", "instance.h")
 CORE_SOURCES = ("gyro_text.c", "gyro_rng.c", "gyro_plant.c", "gyro_signals.c", "gyro_observer.c",
-                "gyro_master.c")
+                "gyro_master.c", "gyro_resonator.c", "gyro_loops.c", "gyro_carrier.c")
 #: Core sources every model's binary needs (the FMI layer's messages).
 COMMON_CORE = ("gyro_text.c",)
 GENERATION_TOOL = "gyro_fmu (native C, zig cc)"
@@ -81,9 +82,11 @@ DEFAULT_EXPERIMENT = {"startTime": "0", "stopTime": "0.01", "stepSize": "5e-06"}
 
 #: The native FMUs, by model identifier: the physics' and the observer's declarations.
 NATIVE_INTERFACES: dict[str, FmuInterface] = {**PHYSICS_INTERFACES,
-                                              OBSERVER.identifier: OBSERVER}
+                                              OBSERVER.identifier: OBSERVER,
+                                              **SELFCAL_INTERFACES}
 #: The modules the declarations come from (the prebuilt FMUs' staleness stamp hashes them).
-DECLARATION_FILES = ("model/interfaces.py", "estimation/interface.py",
+DECLARATION_FILES = ("model/interfaces.py", "model/selfcal_interfaces.py", "model/resonator.py",
+                     "model/loops.py", "estimation/interface.py",
                      "estimation/observer_tuning.py", "estimation/observer_rate.py")
 
 
@@ -173,7 +176,11 @@ def model_description(interface: FmuInterface, fmi_version: int) -> bytes:
                         "step or a restored state goes on)"),
                        ("logStatusError", "errors: a refused call or value, a failed step")):
         SubElement(categories, "Category", name=name, description=text)
-    SubElement(root, "DefaultExperiment", DEFAULT_EXPERIMENT)
+    experiment = dict(DEFAULT_EXPERIMENT)
+    if interface.default_experiment is not None:
+        stop, step = interface.default_experiment
+        experiment.update(stopTime=f"{stop:g}", stepSize=f"{step:g}")
+    SubElement(root, "DefaultExperiment", experiment)
     variables = SubElement(root, "ModelVariables")
     if not two:
         SubElement(variables, "Float64", name="time", valueReference="0",

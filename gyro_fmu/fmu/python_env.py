@@ -20,7 +20,7 @@ from importlib.util import find_spec
 from pathlib import Path
 
 #: Modules the shipped gyro_fmu package imports that are not in the FMU itself.
-REQUIRED_MODULES: tuple[str, ...] = ("numpy", "scipy", "numba", "llvmlite")
+REQUIRED_MODULES: tuple[str, ...] = ("numpy", "scipy")
 
 
 @dataclass(frozen=True)

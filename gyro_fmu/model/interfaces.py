@@ -95,6 +95,9 @@ class FmuInterface:
         default=lambda stop_time, step: None)
     #: Core sources (fmu_src/core/) the model's C file needs.
     core_sources: tuple[str, ...] = ()
+    #: (stopTime, stepSize) of the DefaultExperiment (and of the stored reference run);
+    #: None for gyro_fmu.fmu.native.DEFAULT_EXPERIMENT.
+    default_experiment: tuple[float, float] | None = None
 
     def value_reference(self, name: str) -> int:
         return 1 + [v.name for v in self.variables].index(name)

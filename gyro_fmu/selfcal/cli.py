@@ -11,11 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..model.loops import LoopsError
 from ..model.parameters import ParameterError
+from ..model.resonator import EARTH_RATE, ResonatorError, ResonatorParameters, check_resonator
 from .alarms import CalibrationRefusedError
-from .loops import LoopsError
 from .phasors import PhasorError
-from .resonator import EARTH_RATE, ResonatorError, ResonatorParameters, check_resonator
 from .sequence import FeedForward, SelfCalConfig
 
 RESONATOR_NAMES = tuple(f.name for f in fields(ResonatorParameters))

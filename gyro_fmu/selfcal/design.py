@@ -30,8 +30,8 @@ from __future__ import annotations
 import math
 from dataclasses import fields, replace
 
-from .loops import LoopSettings
-from .resonator import ResonatorParameters
+from ..model.loops import LoopSettings
+from ..model.resonator import ResonatorParameters
 
 #: Fraction of the drive limit the amplitude control may need to hold its setpoint.
 DRIVE_HEADROOM = 0.4
@@ -55,7 +55,7 @@ def loops_for(nominal: ResonatorParameters, **overrides: float) -> LoopSettings:
     field names). Unknown names are refused by name."""
     unknown = sorted(set(overrides) - set(LOOP_NAMES))
     if unknown:
-        from .loops import LoopsError
+        from ..model.loops import LoopsError
 
         raise LoopsError(f"unknown loop setting(s) {', '.join(unknown)}; "
                          f"known: {', '.join(LOOP_NAMES)}")

@@ -1,21 +1,23 @@
 """Resonator and loops at carrier rate, in process, in the FMUs' Jacobi order.
 
 At every communication point t_k both units publish their outputs, each receives the
-other's, and both step to t_k + h: exactly what the fmpy master does with
-GyroResonator.fmu and GyroLoops.fmu, so the two runs are bit-identical (tests hold
-this) and long calibration records can run here at a fraction of the FMI cost.
+other's, and both step to t_k + h (the core's gyro_carrier_run): exactly what the fmpy
+master does with GyroResonator.fmu and GyroLoops.fmu, which step the same core, so the
+two runs are bit-identical (tests hold this) and long calibration records run here
+without a call per step.
 """
 
 from __future__ import annotations
 
+import ctypes
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
-from .loops import OUTPUTS as LOOP_OUTPUTS
-from .loops import LoopSettings, LoopsModel, loops_step
-from .resonator import ResonatorModel, ResonatorParameters, resonator_step
+from ..core import selfcal as c
+from ..model.loops import OUTPUTS as LOOP_OUTPUTS
+from ..model.loops import LoopSettings, LoopsModel
+from ..model.resonator import ResonatorError, ResonatorModel, ResonatorParameters
 
 #: Recorded columns (after "time").
 COLUMNS = ("time", *LOOP_OUTPUTS, "Vpx", "Vpy")
@@ -39,27 +41,6 @@ class CarrierRecord:
     @property
     def time(self) -> np.ndarray:
         return self.data[:, 0]
-
-
-@njit(cache=True)
-def _run(k0, n, t0, h, Phi, Gamma, s, gains, E, noise, par, st, lout, pout, rec, r0,
-         cubic, nsub, L, extra, drive_std):  # pragma: no cover
-    V = np.empty(2)
-    drawn = extra.shape[0] > 1  # force or drive noise: one row of 8 normals per step
-    for j in range(n):
-        k = k0 + j
-        t = t0 + k * h
-        if k >= r0:
-            row = rec[k - r0]
-            row[0] = t
-            for i in range(9):
-                row[1 + i] = lout[i]
-            row[10], row[11] = pout[0], pout[1]
-        V[0], V[1] = lout[0], lout[1]
-        px, py = pout[0], pout[1]
-        resonator_step(Phi, Gamma, s, V, gains, E, noise[j], pout, cubic, nsub, h, L,
-                       extra[j] if drawn else extra[0], drive_std)
-        loops_step(px, py, t, h, par, st, lout)
 
 
 class CarrierSimulation:
@@ -90,17 +71,16 @@ class CarrierSimulation:
                              f"({k_end * h:g} s): record from at most the end")
         rec = np.zeros((k_end - r0 + 1, len(COLUMNS)))
         pl, lo = self.plant, self.loops
-        done = 0
-        while done < n:  # in chunks that end where the temperature ramp re-discretizes
-            m = min(chunk, n - done, pl.steps_left())
-            Phi, Gamma = pl.matrices(self.Omega_z, h)
-            noise = pl.noise.take(m)
-            extra = pl.extra.take(m) if pl.extra.std != 0.0 else np.zeros((1, 8))
-            _run(self.k, m, 0.0, h, Phi, Gamma, pl.s, pl.gains, pl.E, noise, lo.par, lo.st,
-                 lo.out, pl.out, rec, r0, pl.cubic, pl.nsub, pl.L, extra, pl.p.drive_noise)
-            self.k += m
-            pl.k += m
-            done += m
+        lib, msg, done = c.selfcal_core(), c.message_buffer(), ctypes.c_int64()
+        data = rec.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        while self.k < k_end:  # in chunks, so that Ctrl-C is seen between them
+            m = min(chunk, k_end - self.k)
+            failed = lib.gyro_carrier_run(ctypes.byref(pl.core), ctypes.byref(lo.core), self.k,
+                                          m, h, float(self.Omega_z), data, r0,
+                                          ctypes.byref(done), msg, len(msg))
+            self.k += done.value
+            if failed:
+                raise ResonatorError(f"{msg.value.decode()} (at t = {self.k * h:g} s)")
         last = rec[k_end - r0]
         last[0] = k_end * h
         last[1:10] = lo.out

@@ -30,9 +30,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GyroFmuError
+from ..model.resonator import EARTH_RATE, ResonatorParameters
 from .alarms import CalibrationRefusedError
 from .design import design
-from .resonator import EARTH_RATE, ResonatorParameters
 
 #: |bias - table| and |SF - table| a good calibration must reach.
 BIAS_TOLERANCE = 7.27e-5  #: rad/s (earth rate)

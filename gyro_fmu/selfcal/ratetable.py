@@ -15,9 +15,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import GyroFmuError
+from ..model.loops import LoopsError, LoopSettings
+from ..model.resonator import ResonatorParameters
 from .inprocess import CarrierSimulation
-from .loops import LoopsError, LoopSettings
-from .resonator import ResonatorParameters
 from .sequence import FeedForward, SelfCalConfig
 
 #: Table rates, rad/s (about +-6, 29 and 57 deg/s, and zero).

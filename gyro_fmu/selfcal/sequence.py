@@ -22,6 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..model.loops import LoopSettings
+from ..model.resonator import EARTH_RATE, ResonatorParameters
 from . import alarms
 from .estimator import (
     ModeData,
@@ -32,9 +34,7 @@ from .estimator import (
     fit_sidebands,
 )
 from .inprocess import DEFAULT_STEP, CarrierRecord, CarrierSimulation
-from .loops import LoopSettings
 from .phasors import phasors, phasors_and_variances
-from .resonator import EARTH_RATE, ResonatorParameters
 
 
 @dataclass(frozen=True)

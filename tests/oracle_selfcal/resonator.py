@@ -41,7 +41,8 @@ import numpy as np
 from numba import njit
 from scipy.linalg import expm
 
-from ..errors import GyroFmuError
+from gyro_fmu.errors import GyroFmuError
+
 from .noise import NoiseStream, white_noise_covariance
 
 #: Order of the resonator's state vector.

@@ -30,7 +30,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from numba import njit
 
-from ..errors import GyroFmuError
+from gyro_fmu.errors import GyroFmuError
+
 from .resonator import non_finite_fields
 
 #: Outputs of one loops step, in order.

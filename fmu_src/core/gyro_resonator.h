@@ -1,0 +1,139 @@
+/* The resonator of US 9,482,553 (eq. 1), voltages in and out (GyroResonator.fmu and the
+ * self-calibration library step the same code). Per unit modal mass, q = (x, y):
+ *     x'' + dxx x' + (dxy - 2 kappa Omega_z) y' + kxx x + kxy y = fx          (eq. 1)
+ *     y'' + dyy y' + (dxy + 2 kappa Omega_z) x' + kyy y + kxy x = fy
+ *     fx = Bx (Vx + alpha_y Vy),   fy = By (Vy + alpha_x Vx)
+ * kxx = (2 pi f_x)^2, dxx = 2 pi f_x / Q_x (y alike); kappa the Bryant factor. Pick-offs:
+ * V_p = P z + E V + noise, tau z' = q_s - z + c_ring V_ring (tan phi = 2 pi f_x tau; tau = 0:
+ * z = q_s + c_ring V_ring at once), sensed q_s = cos(beta) own + sin(beta) other;
+ * V_ring = ring_amplitude (cos w1 t + cos w2 t) from two oscillator states. Optional cubic
+ * stiffness k3x x^3 + k3xy y^3, k3y y^3 + k3yx x^3 (eqs. 20-23) by Strang splitting (n
+ * substeps: linear flow h/2n, cubic kick h/n, linear flow h/2n); thermomechanical force
+ * noise of two-sided intensity 2 k_B T D / m_modal, white drive-voltage noise, and a
+ * temperature ramp (f by tc_f, Q by tc_Q per kelvin; step matrices recomputed every
+ * thermal_update_steps steps at the interval's mid temperature). docs/resonator-physics.md
+ * derives each term.
+ *
+ * State s = (x, y, vx, vy, zx, zy, ring1 cos, sin, ring2 cos, sin). Each step holds
+ * (Vx, Vy, Omega_z) and is the exact zero-order-hold solution (Van Loan: one matrix
+ * exponential, cached while Omega_z, h and the temperature stay). Noise: pick-off noise
+ * from one seeded generator (2 normals a step), force and drive noise from a second one
+ * (8 a step), so the FMU and the in-process run draw the same sequence. */
+#ifndef GYRO_RESONATOR_H
+#define GYRO_RESONATOR_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "gyro_rng.h"
+
+#define GYRO_RES_N 10       /* states */
+#define GYRO_RES_FORCED 6   /* states the force noise reaches: x, y, vx, vy, zx, zy */
+#define GYRO_RES_DRAWS 8    /* normals of the second generator per step: 6 force, 2 drive */
+#define GYRO_K_B 1.380649e-23 /* Boltzmann constant, J/K */
+
+/* In the order of gyro_fmu.model.resonator.ResonatorParameters (SI units). */
+typedef struct {
+    double f_x, f_y;        /* Hz, mode frequencies */
+    double Q_x, Q_y;        /* quality factors */
+    double dxy;             /* 1/s, cross damping (bias = dxy / (2 kappa)) */
+    double kxy;             /* 1/s^2, cross stiffness */
+    double kappa;           /* Bryant factor */
+    double Bx, By;          /* m/s^2/V, forcer gains */
+    double alpha_x, alpha_y; /* rad, forcer misalignments (x into y, y into x) */
+    double Px, Py;          /* V/m, pick-off gains */
+    double phi_x, phi_y;    /* rad, pick-off electronics phase lags at f_x */
+    double Exx, Exy, Eyx, Eyy; /* V/V, drive feed-through into the pick-offs */
+    double c_ring;          /* m/V, ring voltage seen by the pick-offs */
+    double k3x, k3y;        /* 1/(m^2 s^2), cubic stiffness (eqs. 20-21) */
+    int32_t cubic_substeps; /* splitting substeps when a cubic term is not 0 */
+    double ring_amplitude;  /* V, each ring tone (0 = off) */
+    double ring_frequency_1, ring_frequency_2; /* Hz */
+    double noise;           /* V, std of white noise on each pick-off sample */
+    double beta_x, beta_y;  /* rad, pick-off sensing axes tilted toward the other axis */
+    double k3xy, k3yx;      /* 1/(m^2 s^2), cross-cubic stiffness (eqs. 22-23) */
+    double m_modal;         /* kg, modal mass of the force noise (0 = none) */
+    double temperature;     /* K, at the start of the run */
+    double drive_noise;     /* V, std of white noise on each held drive voltage */
+    double temperature_rate; /* K/s */
+    double tc_f, tc_Q;      /* 1/K, relative change of f and of Q per kelvin */
+    int32_t thermal_update_steps; /* steps between re-discretizations during a ramp */
+} GyroResonatorParams;
+
+/* One held step's maps, for (Omega_z, h, dT): s' = Phi s + Gamma V (+ L w). With cubic
+ * stiffness Phi, Gamma are over h / (2 n). */
+typedef struct {
+    double Phi[GYRO_RES_N][GYRO_RES_N];
+    double Gamma[GYRO_RES_N][2];
+    double L[GYRO_RES_N][GYRO_RES_FORCED]; /* force noise input over h (0 without) */
+    double Omega_z, h, dT;
+    int32_t valid, reserved;
+} GyroResonatorMaps;
+
+typedef struct {
+    GyroResonatorParams p;
+    uint64_t seed;
+    double s[GYRO_RES_N];
+    double out[2];           /* Vpx, Vpy at the current time */
+    int64_t k;               /* steps taken: the temperature ramp's clock */
+    GyroRng noise_rng;       /* pick-off noise */
+    GyroRng force_rng;       /* force and drive noise */
+    GyroResonatorMaps maps;
+} GyroResonator;
+
+/* Problems with p (0 when usable), "; "-separated in msg, each naming the value and the
+ * remedy. */
+int gyro_resonator_problems(const GyroResonatorParams *p, char *msg, size_t n);
+
+/* (kxx, kyy, dxx, dyy) dT kelvin from the start temperature; 1 (and msg) where f or Q
+ * would reach 0. */
+int gyro_resonator_at_temperature(const GyroResonatorParams *p, double dT, double out[4],
+                                  char *msg, size_t n);
+
+/* Continuous A (10x10) and B (10x2), dT kelvin from the start; 1 (and msg) as above. */
+int gyro_resonator_system(const GyroResonatorParams *p, double Omega_z, double dT,
+                          double A[GYRO_RES_N][GYRO_RES_N], double B[GYRO_RES_N][2],
+                          char *msg, size_t n);
+
+/* Exact zero-order-hold step over h (a zero-lag pick-off's rows set algebraically). */
+int gyro_resonator_discretize(const GyroResonatorParams *p, double Omega_z, double h,
+                              double dT, double Phi[GYRO_RES_N][GYRO_RES_N],
+                              double Gamma[GYRO_RES_N][2], char *msg, size_t n);
+
+/* Covariance (6x6) of the force noise's increment of (x, y, vx, vy, zx, zy) over h. */
+int gyro_resonator_force_covariance(const GyroResonatorParams *p, double Omega_z, double h,
+                                    double dT, double Q[GYRO_RES_FORCED][GYRO_RES_FORCED],
+                                    char *msg, size_t n);
+
+/* Q(h) = integral over [0, h] of e^{As} Qc e^{A's} ds for an n x n A (n <= 6), row-major. */
+void gyro_white_noise_covariance(int n, const double *A, const double *Qc, double h, double *Q);
+
+/* E = e^M for an n x n row-major M (n <= 12): Higham's scaling and squaring with the
+ * [13/13] Pade approximant (the method of scipy.linalg.expm for large norms). */
+void gyro_expm(int n, const double *M, double *E);
+
+/* From rest (ring tones at cos = 1) or from initial_state (10 values; NULL for rest);
+ * 1 (and msg) when p is unusable. */
+int gyro_resonator_init(GyroResonator *r, const GyroResonatorParams *p, uint64_t seed,
+                        const double *initial_state, char *msg, size_t n);
+
+/* The maps of the current step (recomputed when Omega_z, h or the thermal interval
+ * changed); 1 (and msg) when the ramp took f or Q to 0. */
+int gyro_resonator_maps(GyroResonator *r, double Omega_z, double h, char *msg, size_t n);
+
+/* Hold (Vx, Vy, Omega_z) over h; r->out then holds the pick-off voltages at the end.
+ * 1 (and msg, nothing changed) when the step matrices cannot be computed. */
+int gyro_resonator_step(GyroResonator *r, double Vx, double Vy, double Omega_z, double h,
+                        char *msg, size_t n);
+
+/* Steps until the temperature ramp re-discretizes (INT64_MAX without a ramp). */
+int64_t gyro_resonator_steps_left(const GyroResonator *r);
+
+/* 1 (and msg) when a restored resonator does not belong to p. */
+int gyro_resonator_restored_problem(const GyroResonator *r, const GyroResonatorParams *p,
+                                    char *msg, size_t n);
+
+size_t gyro_resonator_size(void);
+size_t gyro_resonator_params_size(void);
+
+#endif
