@@ -194,7 +194,7 @@ def test_bad_settings_are_named() -> None:
         LoopsModel(LoopSettings(mode=3))
     with pytest.raises(LoopsError, match="pll_bandwidth"):
         LoopsModel(LoopSettings(pll_bandwidth=-1.0))
-    with pytest.raises(LoopsError, match="sideband_count=2.5 must be a whole number"):
+    with pytest.raises(LoopsError, match=r"sideband_count=2\.5 must be a whole number"):
         LoopsModel(LoopSettings(sideband_count=2.5))
 
 

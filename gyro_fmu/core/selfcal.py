@@ -134,3 +134,23 @@ def selfcal_core() -> ctypes.CDLL:
 
 def message_buffer() -> ctypes.Array:
     return ctypes.create_string_buffer(4096)
+
+
+class CoreStructState:
+    """State of a library model that holds one core struct in `self.core`: the struct's
+    bytes as hex text (the state, the generators and the cached maps, exactly), checked
+    for size; `_state_error` names the model's error class."""
+
+    core: ctypes.Structure
+    _state_error: type[Exception] = ValueError
+
+    def get_state(self) -> dict:
+        return {"core": bytes(self.core).hex()}
+
+    def set_state(self, state: dict) -> None:
+        raw = bytes.fromhex(state["core"])
+        if len(raw) != ctypes.sizeof(self.core):
+            raise self._state_error(f"saved state is {len(raw)} bytes, this "
+                                    f"{type(self).__name__}'s {ctypes.sizeof(self.core)}: "
+                                    "save it with this version")
+        ctypes.memmove(ctypes.byref(self.core), raw, len(raw))

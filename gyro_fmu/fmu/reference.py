@@ -14,7 +14,6 @@ from __future__ import annotations
 import tempfile
 import zipfile
 import zlib
-from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from xml.etree.ElementTree import Element, SubElement, fromstring, tostring
@@ -34,16 +33,6 @@ _LS = "http://fmi-standard.org/fmi-ls-manifest"
 
 class ReferenceResultError(GyroFmuError, RuntimeError):
     """An FMU without usable reference results."""
-
-
-def input_table(time: np.ndarray, columns: Mapping[str, np.ndarray]) -> np.ndarray:
-    """Reference inputs as fmpy takes them: a structured array, 'time' first, then
-    `columns` in their order."""
-    table = np.zeros(time.size, dtype=[("time", float)] + [(n, float) for n in columns])
-    table["time"] = time
-    for name, column in columns.items():
-        table[name] = column
-    return table
 
 
 def reference_inputs(model_name: str, stop_time: float, step: float) -> np.ndarray | None:

@@ -90,7 +90,7 @@ class FmuInterface:
     #: `gyro-fmu doctor`'s C-host check: (inputs held over every step, outputs read).
     doctor_check: tuple[dict[str, float], tuple[str, ...]]
     #: Inputs of the reference run stored in the FMU: (stop_time, step) -> structured array
-    #: with 'time' first (gyro_fmu.fmu.reference.input_table), or None for none.
+    #: with 'time' first (`input_table`), or None for none.
     reference_inputs: Callable[[float, float], np.ndarray | None] = field(
         default=lambda stop_time, step: None)
     #: Core sources (fmu_src/core/) the model's C file needs.
@@ -103,7 +103,9 @@ class FmuInterface:
         return 1 + [v.name for v in self.variables].index(name)
 
 
-def _table(time: np.ndarray, columns: dict[str, np.ndarray]) -> np.ndarray:
+def input_table(time: np.ndarray, columns: dict[str, np.ndarray]) -> np.ndarray:
+    """Reference inputs as fmpy takes them: a structured array, 'time' first, then
+    `columns` in their order."""
     out = np.zeros(time.size, dtype=[("time", float)] + [(n, float) for n in columns])
     out["time"] = time
     for name, column in columns.items():
@@ -122,7 +124,8 @@ _PARAMETER_DESCRIPTIONS = {
 def _plant_reference_inputs(stop_time: float, step: float) -> np.ndarray:
     """The default scenario's two-tone drive and a constant 1 rad/s."""
     t = np.arange(round(stop_time / step) + 1) * step
-    return _table(t, {"ux": TwoToneDrive().ux_many(t), "uy": 0 * t, "Omega_z": np.ones_like(t)})
+    return input_table(t, {"ux": TwoToneDrive().ux_many(t), "uy": 0 * t,
+                           "Omega_z": np.ones_like(t)})
 
 
 PLANT = FmuInterface(

@@ -99,8 +99,10 @@ def sideband_phases(count: int) -> np.ndarray:
     return -np.pi * k * (k - 1) / max(count, 1)
 
 
-class LoopsModel:
+class LoopsModel(c.CoreStructState):
     """The electronics as a stepping model over the core (what GyroLoops.fmu steps)."""
+
+    _state_error = LoopsError
 
     def __init__(self, settings: LoopSettings) -> None:
         problems = settings.problems()
@@ -124,16 +126,6 @@ class LoopsModel:
         """Consume the pick-offs sampled at t; returns the outputs for the hold from t + h."""
         self._step(self._ref, px, py, t, h)
         return self.out
-
-    def get_state(self) -> dict:
-        return {"core": bytes(self.core).hex()}
-
-    def set_state(self, state: dict) -> None:
-        raw = bytes.fromhex(state["core"])
-        if len(raw) != ctypes.sizeof(self.core):
-            raise LoopsError(f"saved loop state is {len(raw)} bytes, this one "
-                             f"{ctypes.sizeof(self.core)}: save it with this version")
-        ctypes.memmove(ctypes.byref(self.core), raw, len(raw))
 
     def __getstate__(self) -> dict:
         return {"settings": self.settings, **self.get_state()}

@@ -274,8 +274,10 @@ def _view(array: ctypes.Array) -> np.ndarray:
     return np.ctypeslib.as_array(array)
 
 
-class ResonatorModel:
+class ResonatorModel(c.CoreStructState):
     """The resonator as a stepping model over the core (what GyroResonator.fmu steps)."""
+
+    _state_error = ResonatorError
 
     def __init__(self, p: ResonatorParameters, seed: int = 0,
                  initial_state: np.ndarray | None = None) -> None:
@@ -311,17 +313,6 @@ class ResonatorModel:
         _call("gyro_resonator_step", ctypes.byref(self.core), float(V[0]), float(V[1]),
               Omega_z, h)
         return self.out
-
-    def get_state(self) -> dict:
-        """The whole core struct (state, generators, cached maps), as hex text."""
-        return {"core": bytes(self.core).hex()}
-
-    def set_state(self, state: dict) -> None:
-        raw = bytes.fromhex(state["core"])
-        if len(raw) != ctypes.sizeof(self.core):
-            raise ResonatorError(f"saved resonator state is {len(raw)} bytes, this one "
-                                 f"{ctypes.sizeof(self.core)}: save it with this version")
-        ctypes.memmove(ctypes.byref(self.core), raw, len(raw))
 
     def __getstate__(self) -> dict:
         return {"p": self.p, **self.get_state()}

@@ -15,7 +15,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .interfaces import SEED_MAX, FmuInterface, Var, dataclass_parameters
+from .interfaces import SEED_MAX, FmuInterface, Var, dataclass_parameters, input_table
 from .loops import OUTPUTS as LOOP_OUTPUTS
 from .loops import LoopSettings
 from .resonator import ResonatorParameters
@@ -94,14 +94,6 @@ def fmu_parameters(settings: object, renamed: Mapping[str, str] | None = None) -
     return {renamed.get(k, k): v for k, v in dataclasses.asdict(settings).items()}
 
 
-def _table(t: np.ndarray, columns: dict[str, np.ndarray]) -> np.ndarray:
-    out = np.zeros(t.size, dtype=[("time", float)] + [(n, float) for n in columns])
-    out["time"] = t
-    for name, column in columns.items():
-        out[name] = column
-    return out
-
-
 #: FMI unit of every field of ResonatorParameters.
 _RESONATOR_UNITS = {
     "f_x": "Hz", "f_y": "Hz", "Q_x": "1", "Q_y": "1", "dxy": "1/s", "kxy": "1/s2",
@@ -131,7 +123,7 @@ def _resonator_reference_inputs(stop_time: float, step: float) -> np.ndarray:
     """A 0.6 V drive at 4 kHz on x and a constant 1 rad/s."""
     t = np.arange(round(stop_time / step) + 1) * step
     carrier = 2 * np.pi * 4000.0 * t
-    return _table(t, {"Vx": 0.6 * np.sin(carrier), "Vy": 0 * t, "Omega_z": np.ones_like(t)})
+    return input_table(t, {"Vx": 0.6 * np.sin(carrier), "Vy": 0 * t, "Omega_z": np.ones_like(t)})
 
 
 RESONATOR = FmuInterface(
@@ -228,7 +220,7 @@ def _loops_reference_inputs(stop_time: float, step: float) -> np.ndarray:
     and the rebalance act)."""
     t = np.arange(round(stop_time / step) + 1) * step
     carrier = 2 * np.pi * 4000.0 * t
-    return _table(t, {"Vpx": np.cos(carrier + 0.3), "Vpy": 0.01 * np.sin(carrier + 0.1)})
+    return input_table(t, {"Vpx": np.cos(carrier + 0.3), "Vpy": 0.01 * np.sin(carrier + 0.1)})
 
 
 LOOPS = FmuInterface(
