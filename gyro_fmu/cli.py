@@ -63,15 +63,12 @@ def parser() -> argparse.ArgumentParser:
     b.add_argument("--dest", default=str(MODELS_DIR),
                    help="output folder (default models/ under the working directory)")
     b.add_argument("--flavour", choices=("native", "pythonfmu"), default="native",
-                   help="native (default): the C FMUs of the package for GyroPlant, "
-                   "TwoToneDrive, RateProfile, GyroObserver; pythonfmu: their pythonfmu adapters "
-                   "over the "
-                   "same C core instead (the other FMUs are pythonfmu FMUs either way)")
+                   help="native (default): the package's C FMUs; pythonfmu: pythonfmu "
+                   "adapters over the same C core instead (they need this Python)")
     b.set_defaults(func=_cmd_build)
 
-    f = sub.add_parser("fmus", help="copy the native FMUs (GyroPlant, TwoToneDrive, "
-                       "RateProfile, GyroObserver; every platform, FMI 2.0 and 3.0) out for your "
-                       "own tool")
+    f = sub.add_parser("fmus", help=f"copy the native FMUs ({', '.join(FMU_NAMES)}; every "
+                       "platform, FMI 2.0 and 3.0) out for your own tool")
     f.add_argument("--dest", default="fmus", help="output folder (default fmus/)")
     f.add_argument("--fmi", choices=("2", "3", "both"), default="both",
                    help="FMI version (default both, into DEST/fmi2 and DEST/fmi3)")

@@ -106,6 +106,34 @@ def test_the_check_plan_is_the_slaves_and_without_its_source_every_output(
     assert all(v == [0.0, 0.0, 0.0] for v in run.outputs.values())  # at rest without inputs
 
 
+@needs_c_host
+@pytest.mark.parametrize("name", build.FMU_NAMES)
+def test_each_pythonfmu_fmu_runs_on_what_it_ships_alone(pythonfmu_models: Path,
+                                                        tmp_path: Path, name: str) -> None:
+    """A C host has no gyro_fmu but the FMU's own copy: the modules the adapter can reach
+    (gyro_fmu.fmu.shipping) suffice, nothing above the step travels, and the outputs are
+    the native FMU's in the same host (both step the same core)."""
+    import zipfile
+
+    from gyro_fmu.fmu.shipping import NEVER_IN_AN_FMU
+
+    fmu = pythonfmu_models / f"{name}.fmu"
+    with zipfile.ZipFile(fmu) as z:
+        shipped = [n for n in z.namelist() if n.startswith("resources/gyro_fmu/")]
+    forbidden = [m.replace(".", "/") for m in NEVER_IN_AN_FMU]
+    assert not [n for n in shipped if any(n.startswith(f"resources/{f}") for f in forbidden)]
+    assert len(shipped) < 40, shipped
+    exe, log = host.compile_host(tmp_path, env.find_compiler())
+    assert exe is not None, log
+    runs = {}
+    for flavour, path in (("pythonfmu", fmu), ("native", build.prebuilt_fmu(name))):
+        info = host.unpack_fmu(path, tmp_path / flavour)
+        environment = doc.doctor(compile_host=False, fmu=path).environment()
+        runs[flavour] = host.run_host(exe, info, environment, flavour, steps=20)
+        assert runs[flavour].passed, runs[flavour].stdout + runs[flavour].stderr
+    assert runs["pythonfmu"].outputs == runs["native"].outputs
+
+
 def test_settings_of_this_interpreter() -> None:
     lib = env.find_libpython()
     if lib.path is None:

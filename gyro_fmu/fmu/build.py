@@ -34,15 +34,12 @@ from typing import Any
 from pythonfmu.builder import FmuBuilder
 
 from ..errors import GyroFmuError
+from .shipping import shipped_package_files
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1]
 #: Default folder of the built FMUs: relative, so it is models/ under the working
 #: directory at the time of use.
 MODELS_DIR = Path("models")
-#: Folders of the package that are not shipped inside the FMUs.
-NOT_SHIPPED = ("fmu_src", "__pycache__", "fmus")
-#: Compiled core libraries (gyro_fmu/core/lib/<platform>/) the shipped package loads.
-SHIPPED_BINARY_SUFFIXES = (".so", ".dll", ".dylib")
 
 
 def source_dir() -> Path | None:
@@ -56,14 +53,6 @@ def source_dir() -> Path | None:
         return None
     return Path(next(iter(spec.submodule_search_locations))).resolve()
 
-
-def shipped_package_files() -> dict[str, Path]:
-    """The gyro_fmu files every FMU carries, by their path inside the archive."""
-    return {f"resources/gyro_fmu/{f.relative_to(PACKAGE_DIR).as_posix()}": f
-            for f in PACKAGE_DIR.rglob("*")
-            if f.is_file() and (f.suffix in (".py", ".c") or (
-                f.suffix in SHIPPED_BINARY_SUFFIXES and "lib" in f.relative_to(PACKAGE_DIR).parts))
-            and not set(f.relative_to(PACKAGE_DIR).parts) & set(NOT_SHIPPED)}
 
 #: Capability flags, each true in fact (tests/test_fmu_quality.py holds them).
 CAPABILITIES = {
@@ -182,7 +171,7 @@ def build_fmu(name: str, dest: Path = MODELS_DIR, reference: bool = True,
     # dest/NAME.fmu meanwhile sees the old archive or the new one, never a partial one.
     with tempfile.TemporaryDirectory(dir=dest, prefix=f".{name}-") as tmp:
         package = Path(tmp) / "stage" / "gyro_fmu"
-        for archived, f in shipped_package_files().items():
+        for archived, f in shipped_package_files(script).items():
             target = package / archived.removeprefix("resources/gyro_fmu/")
             target.parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(f, target)
@@ -237,7 +226,7 @@ def stale_sources(fmu: Path, name: str) -> list[str]:
     source = sources / f"{name}.py" if sources else None
     if source is None or not source.is_file():
         return []
-    tree = {f"resources/{name}.py": source, **shipped_package_files()}
+    tree = {f"resources/{name}.py": source, **shipped_package_files(source)}
     try:
         with zipfile.ZipFile(fmu) as z:
             shipped = {i.filename: (i.file_size, i.CRC) for i in z.infolist()

@@ -8,15 +8,17 @@ import math
 import sys
 from dataclasses import fields, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..model.loops import LoopsError
 from ..model.parameters import ParameterError
 from ..model.resonator import EARTH_RATE, ResonatorError, ResonatorParameters, check_resonator
-from .alarms import CalibrationRefusedError
-from .phasors import PhasorError
-from .sequence import FeedForward, SelfCalConfig
+
+if TYPE_CHECKING:  # the parser is built without the calibration's stack (scipy.optimize)
+    from .alarms import CalibrationRefusedError
+    from .sequence import SelfCalConfig
 
 RESONATOR_NAMES = tuple(f.name for f in fields(ResonatorParameters))
 
@@ -104,8 +106,10 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 
 def _cmd_selfcal(args: argparse.Namespace) -> int:
+    from .alarms import CalibrationRefusedError
+    from .phasors import PhasorError
     from .ratetable import rate_table
-    from .sequence import self_calibrate
+    from .sequence import FeedForward, self_calibrate
 
     try:
         res = _resonator(args)
@@ -162,8 +166,9 @@ def _write_refusal(args: argparse.Namespace, exc: CalibrationRefusedError) -> No
 
 
 def _cmd_ratetable(args: argparse.Namespace) -> int:
+    from .phasors import PhasorError
     from .ratetable import DEFAULT_RATES, RateTableError, rate_table
-    from .sequence import measure_feedforward
+    from .sequence import FeedForward, measure_feedforward
 
     rates = tuple(args.rates) if args.rates else DEFAULT_RATES
     if len(set(rates)) < 2 or not all(math.isfinite(r) for r in rates):

@@ -8,31 +8,29 @@
 Definitions, citations and the measured default spec: docs/gyro-spec.md.
 """
 
-from .config import (
-    Record,
-    SpecConfig,
-    SpecError,
-    density_to_std,
-    observer_tuning,
-    pickoff_noise,
-    simulate,
-)
-from .measure import measure_spec
-from .noise import (
-    adev_uncertainty,
-    allan_study,
-    allan_taus,
-    angle_random_walk,
-    bias_instability,
-    check_stationary,
-    local_slopes,
-    startup_time,
-)
-from .response import bandwidth_3db, scale_factor_fit, scale_factor_study
+import importlib
 
-__all__ = [
-    "Record", "SpecConfig", "SpecError", "adev_uncertainty", "allan_study", "allan_taus",
-    "angle_random_walk", "bandwidth_3db", "bias_instability", "check_stationary",
-    "density_to_std", "local_slopes", "measure_spec", "observer_tuning", "pickoff_noise",
-    "scale_factor_fit", "scale_factor_study", "simulate", "startup_time",
-]
+#: The public names, imported on first use (the CLI's parser imports gyro_fmu.spec.cli,
+#: which must not pull in the measurement stack).
+_EXPORTS = {
+    **dict.fromkeys(("Record", "SpecConfig", "SpecError", "density_to_std", "observer_tuning",
+                     "pickoff_noise", "simulate"), "config"),
+    "measure_spec": "measure",
+    **dict.fromkeys(("adev_uncertainty", "allan_study", "allan_taus", "angle_random_walk",
+                     "bias_instability", "check_stationary", "local_slopes", "startup_time"),
+                    "noise"),
+    **dict.fromkeys(("bandwidth_3db", "scale_factor_fit", "scale_factor_study"), "response"),
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> object:
+    if name in _EXPORTS:
+        value = getattr(importlib.import_module(f"{__name__}.{_EXPORTS[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return __all__
