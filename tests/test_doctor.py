@@ -71,7 +71,7 @@ def test_the_fmu_needs_no_settings_and_the_check_can_fail(report: doc.DoctorRepo
 @needs_c_host
 def test_c_host_exits_cleanly(report: doc.DoctorReport) -> None:
     """pythonfmu 0.7.0 frees its interpreter guard twice at exit (SIGABRT in a C host,
-    3 runs of 3 before gyro_fmu.fmu.pythonfmu_exit); with the workaround the host exits 0."""
+    3 runs of 3 before gyro_fmu.upstream.pythonfmu_exit); with the workaround the host exits 0."""
     check = report.check
     assert check is not None
     assert check.returncode == 0, check.stdout + check.stderr

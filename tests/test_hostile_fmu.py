@@ -275,7 +275,7 @@ _ONE_PROCESS = textwrap.dedent("""
     from fmpy.fmi2 import fmi2Terminated
     from fmu_harness import Instance
     from test_hostile_fmu import H, _input_table
-    from gyro_fmu.fmu.fmpy_logger import rearm_default_logger
+    from gyro_fmu.upstream.fmpy_logger import rearm_default_logger
     from gyro_fmu.fmu.validate import validate_files
 
     models, refused_copy = Path(sys.argv[1]), sys.argv[2]
@@ -346,7 +346,7 @@ def test_many_fmus_then_refusals_in_one_process_never_crash(pythonfmu_all, tmp_p
     fmi2GetBooleanStatus. It used to segfault there: fmpy's logger proxy keeps one
     process-global target, left pointing at a freed ctypes thunk by an earlier
     simulate_fmu(logger=...), and the default callbacks call it at the FMU's first log
-    message (see gyro_fmu/fmu/fmpy_logger.py). A child process, so a crash is an exit
+    message (see gyro_fmu/upstream/fmpy_logger.py). A child process, so a crash is an exit
     code."""
     from test_hostile_validate import _copy
 

@@ -29,7 +29,7 @@ from xml.etree import ElementTree
 from ..errors import GyroFmuError
 from .python_env import REQUIRED_MODULES, find_libpython, python_home, required_paths
 
-LOADER_SOURCE = Path(__file__).resolve().parent / "python_loader.c"
+LOADER_SOURCE = Path(__file__).resolve().parents[1] / "upstream" / "python_loader.c"
 ENV_FILE = "resources/python_env.txt"
 MARKER = b"@(#)pythonfmu-shim"
 

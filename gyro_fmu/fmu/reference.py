@@ -24,7 +24,7 @@ from fmpy.util import validate_signal, write_csv
 
 from ..cosim.archives import archive_problem
 from ..errors import GyroFmuError
-from .fmpy_logger import rearm_default_logger
+from ..upstream.fmpy_logger import rearm_default_logger
 
 LS_REF_DIR = "extra/org.fmi-standard.fmi-ls-ref"
 MANIFEST = f"{LS_REF_DIR}/fmi-ls-manifest.xml"

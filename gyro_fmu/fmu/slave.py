@@ -14,7 +14,7 @@ and implements `setup()` and `advance()` (and, when it keeps library objects,
   refused at set time with an error-level log message (the previous value is
   kept) and the next fmi2DoStep returns fmi2Discard without advancing; a host that
   retries that very step (fmpy.simulate_fmu re-sends the same bad value) gets it
-  done with the kept value and fmi2Warning. The C loader (host_status.py) delivers
+  done with the kept value and fmi2Warning. The C loader (upstream/pythonfmu_status.py) delivers
   what pythonfmu cannot: fmi2Error for fmi2DoStep before initialization, and
   fmi2Terminated answered false after a recoverable refusal, fmi2Error once the
   instance cannot step (a failed initialization, parameter, state restore, or a step
@@ -48,8 +48,8 @@ from pythonfmu.enums import Fmi2Initial, Fmi2Status
 from pythonfmu.variables import Integer, Real
 
 from ..model.interfaces import Var, dataclass_parameters  # noqa: F401 (re-exported)
+from ..upstream.pythonfmu_status import ERROR, WARNING, HostStatus, host_library_mismatch
 from . import state as fmu_state
-from .host_status import ERROR, WARNING, HostStatus, host_library_mismatch
 from .units import UNITS
 
 _FMAX = sys.float_info.max
@@ -99,7 +99,7 @@ class GyroSlave(Fmi2Slave):
             mismatch = host_library_mismatch(Path(self.resources))
             if mismatch:
                 self.log(f"{self.modelName}: {mismatch}", Fmi2Status.warning)
-            from . import pythonfmu_exit
+            from ..upstream import pythonfmu_exit
 
             platform = Path(self.resources).parent / "binaries" / "linux64"
             binary = platform / f"{self.modelName}_pythonfmu.so"  # behind our loader

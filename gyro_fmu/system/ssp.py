@@ -36,7 +36,7 @@ from __future__ import annotations
 import ctypes
 import tempfile
 import zipfile
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from xml.etree import ElementTree as ET
@@ -46,6 +46,7 @@ from fmpy import read_model_description
 
 from ..cosim.master import Component, Connection, CoSimulationError, whole_steps
 from ..fmu.build import MODELS_DIR
+from ..upstream.libcosim_samples import get_real_samples
 from .scenario import Scenario, fmu_system, scenario
 
 #: Default package written by `write_ssp` for the default scenario.
@@ -281,20 +282,6 @@ def package_settings(ssp_path: Path, stop_time: float | None = None,
     return stop_time, step
 
 
-def _get_real_samples() -> Callable[..., int]:
-    """cosim_observer_slave_get_real_samples, declared here rather than through
-    libcosimpy's wrapper: that wrapper trims its result by counting step numbers
-    equal to 0, which drops one sample whenever step 0 (the initial values) is in
-    the range asked for."""
-    from libcosimpy._internal import libcosimc
-
-    fn = libcosimc().cosim_observer_slave_get_real_samples
-    fn.restype = ctypes.c_int64
-    fn.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_uint32, ctypes.c_int64,
-                   ctypes.c_size_t, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
-    return fn
-
-
 def _last_error() -> str:
     from libcosimpy._internal import get_last_error_message
 
@@ -391,7 +378,7 @@ def run_ssp_libcosim(
         if not execution.simulate_until(n_steps * step_ns):
             raise SSPError(f"libcosim stopped before {stop_time} s: {_last_error()}")
         result: dict[str, np.ndarray] = {}
-        get_samples = _get_real_samples()
+        get_samples = get_real_samples()
         count = n_steps + 1
         values = (ctypes.c_double * count)()
         steps = (ctypes.c_int64 * count)()

@@ -1,0 +1,24 @@
+"""Workarounds of defects in the libraries gyro_fmu depends on, in one place.
+
+Each module names the upstream version and the defect; tests/test_upstream.py holds one
+canary per defect that fails once upstream behaves (then the workaround can go).
+
+- pythonfmu 0.7.0 frees its interpreter guard twice at process exit, so a C host
+  crashes after its run: `pythonfmu_exit`
+  (canary `test_pythonfmu_still_aborts_a_c_host_at_exit`).
+- pythonfmu 0.7.0 cuts "file://" off the resource URI and decodes nothing, so a folder
+  with a non-ASCII letter or one of ' $ + , # % ? * [ ] is not found: `python_loader.c`,
+  decoded_uri (canary `test_pythonfmu_still_takes_the_uri_undecoded`).
+- pythonfmu 0.7.0 returns fmi2OK from every setter, maps an exception to fmi2Fatal and
+  answers fmi2Terminated = true after any fmi2Discard: `python_loader.c` with
+  `pythonfmu_status` (the slave's line to it) and gyro_fmu.fmu.slave's guarded callbacks
+  (canary `test_pythonfmu_still_answers_terminated_after_a_discard`).
+- fmpy 0.3.32 keeps one process-global pointer behind its logger proxy, so a run with
+  its own logger leaves the default callbacks calling freed memory: `fmpy_logger`
+  (canary `test_fmpy_still_has_one_global_logger_proxy`).
+- libcosimpy 0.0.6's `time_series_real_samples` drops a sample when step 0 is asked for:
+  `libcosim_samples` (canary `test_libcosimpy_still_drops_a_sample`).
+
+They matter only for the pythonfmu flavour (built on request), fmpy's default callbacks
+and the SSP run on libcosim: the native FMUs need none of them.
+"""
