@@ -257,8 +257,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     sc.add_argument("--compare-ratetable", dest="compare_ratetable", action="store_true",
                     help="also run the rate table on the same gyro and print the differences")
     sc.add_argument("--engine", choices=("inprocess", "fmu"), default="inprocess",
-                    help="fmu: run GyroResonator.fmu + GyroLoops.fmu through the fmpy master "
-                         "(bit-identical to inprocess, ~1 min instead of ~2 s)")
+                    help="fmu: run GyroResonator.fmu + GyroLoops.fmu through the project's "
+                         "master (bit-identical to inprocess; about 1.2x its time)")
     sc.add_argument("--no-figures", dest="no_figures", action="store_true")
     sc.set_defaults(func=_cmd_selfcal)
 
