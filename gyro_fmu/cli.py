@@ -7,7 +7,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from . import __version__
+from . import __version__, options
 from .errors import GyroFmuError
 
 
@@ -77,9 +77,11 @@ def parser() -> argparse.ArgumentParser:
     v = sub.add_parser("validate", help="re-simulate FMUs and compare with the reference "
                        "results they carry (fmi-ls-ref); exit 1 on any difference")
     v.add_argument("fmu", nargs="+", help="FMU file(s)")
-    v.add_argument("--dy", type=float, default=1e-6,
+    v.add_argument("--dy", type=options.band,
+                   default=1e-6,
                    help="band half-width as a fraction of each signal's range (default 1e-6)")
-    v.add_argument("--dx", type=int, default=1, help="band width in samples (default 1)")
+    v.add_argument("--dx", type=options.count, default=1,
+                   help="band width in samples (default 1)")
     v.set_defaults(func=_cmd_validate)
 
     d = sub.add_parser("doctor", help="what OMSimulator/Simulink/Dymola/C hosts need to load "

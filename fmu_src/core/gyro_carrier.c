@@ -1,9 +1,17 @@
 #include "gyro_carrier.h"
 
+#include <stdio.h>
+
 int gyro_carrier_run(GyroResonator *r, GyroLoops *l, int64_t k0, int64_t n, double h,
-                     double Omega_z, double *rec, int64_t r0, int64_t *done, char *msg,
-                     size_t msg_size) {
+                     double Omega_z, double *rec, int64_t rows, int64_t r0, int64_t *done,
+                     char *msg, size_t msg_size) {
     *done = 0;
+    if (n < 0 || k0 < 0 || (n > 0 && k0 + n - 1 >= r0 && (k0 + n - 1 - r0 >= rows || r0 < 0))) {
+        snprintf(msg, msg_size, "gyro_carrier_run: steps %lld..%lld from row %lld do not fit "
+                 "a record of %lld rows", (long long)k0, (long long)(k0 + n - 1),
+                 (long long)r0, (long long)rows);
+        return 1;
+    }
     for (int64_t j = 0; j < n; j++) {
         const int64_t k = k0 + j;
         const double t = 0.0 + k * h;

@@ -13,11 +13,11 @@
 /* Columns of a recorded row: time, the 9 loop outputs, Vpx, Vpy. */
 #define GYRO_CARRIER_COLUMNS 12
 
-/* Steps k0 .. k0 + n - 1 with Omega_z held; rows of points k >= r0 go to rec[k - r0]
- * (the caller sizes rec). 1 (and msg) when the resonator refuses a step; *done then
- * counts the steps taken. */
+/* Steps k0 .. k0 + n - 1 with Omega_z held; rows of points k >= r0 go to rec[k - r0],
+ * rec holding rows rows. 1 (and msg) when the resonator refuses a step or a row would
+ * fall outside rec (nothing is written there); *done then counts the steps taken. */
 int gyro_carrier_run(GyroResonator *r, GyroLoops *l, int64_t k0, int64_t n, double h,
-                     double Omega_z, double *rec, int64_t r0, int64_t *done, char *msg,
-                     size_t msg_size);
+                     double Omega_z, double *rec, int64_t rows, int64_t r0, int64_t *done,
+                     char *msg, size_t msg_size);
 
 #endif

@@ -110,7 +110,7 @@ FUNCTIONS = {
     "gyro_loops_step": (None, [_L, _D, _D, _D, _D]),
     "gyro_loops_size": (c_size_t, []),
     "gyro_loop_settings_size": (c_size_t, []),
-    "gyro_carrier_run": (c_int, [_R, _L, c_int64, c_int64, _D, _D, _P, c_int64,
+    "gyro_carrier_run": (c_int, [_R, _L, c_int64, c_int64, _D, _D, _P, c_int64, c_int64,
                                  POINTER(c_int64), *_MSG]),
 }
 _SIZES = {"gyro_resonator_size": Resonator, "gyro_resonator_params_size": ResonatorParams,

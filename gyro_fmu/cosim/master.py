@@ -126,18 +126,20 @@ def whole_steps(duration: float, step: float) -> int:
     return n
 
 
-def check_result_memory(points: int, signals: int, max_bytes: int | None = None) -> None:
+def check_result_memory(points: float, signals: int, max_bytes: int | None = None, *,
+                        what: str = "the results", remedy: str | None = None) -> None:
     """Refuse, before allocating, a table of `points` x `signals` floats larger than
     max_bytes (default `result_memory_limit()`): numpy would fail with a MemoryError or
-    the machine would swap."""
+    the machine would swap. `what` and `remedy` word the refusal for the caller."""
     limit = result_memory_limit() if max_bytes is None else max_bytes
-    needed = points * signals * 8
+    needed = float(points) * signals * 8
     if needed > limit:
+        remedy = remedy or ("shorten the run or lengthen the step, record fewer signals "
+                            "(run_cosimulation(record=[...])), or run it in pieces")
         raise CoSimulationError(
-            f"the results would need {needed / 2**30:.3g} GiB ({points} points x {signals} "
-            f"signals x 8 bytes), more than the limit of {limit / 2**30:.3g} GiB (half this "
-            "machine's memory): shorten the run or lengthen the step, record fewer signals "
-            "(run_cosimulation(record=[...])), or run it in pieces")
+            f"{what} would need {needed / 2**30:.3g} GiB ({float(points):.4g} points x "
+            f"{signals} signals x 8 bytes), more than the limit of {limit / 2**30:.3g} GiB "
+            f"(half this machine's memory): {remedy}")
 
 
 def result_memory_limit() -> int:

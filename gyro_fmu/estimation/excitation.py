@@ -42,7 +42,7 @@ from ..model.measurement import UNKNOWNS
 from ..model.parameters import GyroParameters, ParameterError
 from . import fisher
 from .metrics import tolerance
-from .sensitivity import window_jacobian
+from .sensitivity import drive_tones, window_jacobian
 
 NoiseKind = Literal["relative", "absolute"]
 
@@ -68,13 +68,49 @@ def crb(
     z, dz, scales = window_jacobian(params, drive, Omega_z, measured_pair, window, h, start)
     std = _std(z, noise, noise_kind)
     J = (dz / std[None, :, None]).reshape(-1, dz.shape[2])
-    sig = fisher.standard_deviations_from_fisher(J.T @ J) * scales
+    sig = _sigmas(J.T @ J, scales, sum(a for a, _ in drive_tones(drive)), noise, noise_kind)
     return dict(zip(UNKNOWNS, (float(v) for v in sig), strict=True))
 
 
+def _sigmas(F: np.ndarray, scales: np.ndarray, force: float, noise: float,
+            kind: NoiseKind) -> np.ndarray:
+    """CRB 1-sigma from a Fisher matrix, refused where double precision cannot hold it
+    (a force or a noise of no physical size over- or underflows F)."""
+    if not (np.all(np.isfinite(F)) and np.any(F != 0.0)):
+        raise ParameterError(
+            f"the Fisher information over- or underflows double precision at a force of "
+            f"{force:g} N and a noise of {noise:g} ({kind}): give a force limit "
+            f"(force_limit) and a noise of physical size (the defaults: the preset's drive, "
+            f"noise 1e-4 of each signal's peak)")
+    return fisher.standard_deviations_from_fisher(F) * scales
+
+
+#: Most frequencies a design grid may hold: n^2 tone pairs are bounded per split.
+MAX_GRID = 400
+
+
+def frequency_grid(f_min: float, f_max: float, f_step: float) -> np.ndarray:
+    """f_min, f_min + f_step, ... up to f_max (Hz), each bound named in its refusal."""
+    for name, value in (("f_min", f_min), ("f_max", f_max), ("f_step", f_step)):
+        if not (math.isfinite(value) and value > 0.0):
+            raise ParameterError(f"{name}={value!r} Hz must be a finite number > 0")
+    if not f_min < f_max:
+        raise ParameterError(f"f_min={f_min:g} Hz must be below f_max={f_max:g} Hz")
+    count = math.floor((f_max - f_min) / f_step + 0.5) + 1
+    if count < 2:
+        raise ParameterError(f"f_step={f_step:g} Hz leaves one frequency in {f_min:g}.."
+                             f"{f_max:g} Hz: give a step below {f_max - f_min:g} Hz")
+    if count > MAX_GRID:
+        raise ParameterError(f"f_min..f_max = {f_min:g}..{f_max:g} Hz in steps of f_step="
+                             f"{f_step:g} Hz is "
+                             f"{count:.3g} frequencies, more than {MAX_GRID} ({MAX_GRID}^2 "
+                             "tone pairs): narrow the band or give a larger step")
+    return f_min + f_step * np.arange(count)
+
+
 def _std(z: np.ndarray, noise: float, kind: NoiseKind) -> np.ndarray:
-    if not noise > 0:
-        raise ParameterError(f"noise must be > 0, got {noise!r}")
+    if not (math.isfinite(noise) and noise > 0):
+        raise ParameterError(f"noise must be a finite number > 0, got {noise!r}")
     if kind == "relative":
         peak = np.max(np.abs(z), axis=0)
         return noise * np.where(peak > 0, peak, 1.0)
@@ -152,6 +188,8 @@ def design_drive(
 
     weights: unknown -> weight of sigma/tolerance in the objective (default Omega_z: 1).
     """
+    if not (math.isfinite(force_limit) and force_limit > 0.0):
+        raise ParameterError(f"force_limit={force_limit!r} N must be a finite number > 0")
     freqs = np.asarray(sorted(set(float(f) for f in frequencies)))
     if freqs.size < 2 or np.any(freqs <= 0):
         raise ParameterError("give at least two distinct positive frequencies")
@@ -188,7 +226,7 @@ def design_drive(
                 std = _std(a * Z[i] + b * Z[j], noise, noise_kind)
                 F = sum((a * a * G[c, i, i] + b * b * G[c, j, j]
                          + a * b * (G[c, i, j] + G[c, j, i])) / std[c] ** 2 for c in range(2))
-                sigma[i, j, s] = fisher.standard_deviations_from_fisher(F) * scales
+                sigma[i, j, s] = _sigmas(F, scales, force_limit, noise, noise_kind)
     objective = np.einsum("ijsk,k->ijs", np.nan_to_num(sigma, nan=np.inf, posinf=np.inf), w)
     objective[np.arange(n), np.arange(n), :] = np.nan
     return DriveDesign(freqs, splits_a, sigma, objective, weights, float(force_limit), noise,

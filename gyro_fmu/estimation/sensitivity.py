@@ -18,6 +18,7 @@ from typing import Literal
 import numpy as np
 from scipy.linalg import expm
 
+from ..cosim.master import check_result_memory
 from ..model.drive import TwoToneDrive
 from ..model.dynamics import state_scaling
 from ..model.measurement import UNKNOWNS, MeasuredPair
@@ -179,6 +180,9 @@ def window_jacobian(
     if not (h > 0.0 and window >= h):
         raise ValueError(f"need h > 0 and window >= h, got h={h}, window={window}")
     tones = drive_tones(drive)
+    check_result_memory(window / h, 2 * 2 * 12 + 40, what=f"a window of {window:g} s at "
+                        f"{h:g} s steps (its outputs and sensitivities)",
+                        remedy="shorten the window (--window) or lengthen the step")
     n = round(window / h)
     model = ScaledSensitivitySystem.build(params, Omega_z, h)
     k = np.arange(n)

@@ -16,11 +16,12 @@ def validate_files(paths: Iterable[str | Path], dy: float = 1e-6, dx: int = 1,
     """Validate each FMU against its reference results; exit code 1 if anything failed,
     else 0. Only deliberate refusals (ReferenceResultError) become FAIL lines: any other
     exception is a bug of gyro_fmu and keeps its traceback."""
-    if not (math.isfinite(dy) and dy > 0.0):
-        raise ValueError(f"band dy={dy!r} must be a finite fraction > 0 (default 1e-6): a NaN "
-                         "or zero band compares nothing")
+    if not (math.isfinite(dy) and 0.0 < dy < 1.0):
+        raise ValueError(f"band dy={dy!r} must be a fraction in (0, 1) of each signal's range: "
+                         "a NaN or zero band compares nothing, one of the whole range passes "
+                         "anything")
     if isinstance(dx, bool) or not isinstance(dx, int) or dx < 1:
-        raise ValueError(f"band dx={dx!r} must be a whole number of samples >= 1 (default 1)")
+        raise ValueError(f"band dx={dx!r} must be a whole number of samples >= 1")
     failed = 0
     for fmu in paths:
         try:

@@ -14,12 +14,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..options import SEED_MAX  # the FMUs' seed range (FMI 2.0 Integer)
 from .drive import TwoToneDrive
 from .parameters import DEFAULT_PRESET, PARAMETER_BOUNDS, PARAMETER_UNITS, PRESETS
 from .rate import RateKind, RateProfile
-
-#: Largest seed: FMI 2.0 Integers are 32-bit signed.
-SEED_MAX = 2**31 - 1
 
 
 @dataclass(frozen=True)

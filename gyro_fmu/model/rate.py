@@ -51,6 +51,13 @@ class RateProfile:
         RateProfile.fmu."""
         return _core().gyro_rate_Omega_z(self._c, t)
 
+    def peak(self, t_end: float) -> float:
+        """The largest |Omega_z| over [0, t_end], rad/s (a sine counted at its crest)."""
+        ends = [abs(self.Omega_z(t)) for t in (0.0, self.t_start, t_end) if 0.0 <= t <= t_end]
+        if self.kind is RateKind.sine and self.t_start <= t_end:
+            ends.append(abs(self.offset) + abs(self.amplitude))
+        return max(ends)
+
     def Omega_z_many(self, t: np.ndarray) -> np.ndarray:
         fn, c = _core().gyro_rate_Omega_z, self._c
         return np.array([fn(c, float(tk)) for tk in np.ravel(t)]).reshape(np.shape(t))

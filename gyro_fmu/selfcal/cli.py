@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .. import options
 from ..model.loops import LoopsError
 from ..model.parameters import ParameterError
 from ..model.resonator import EARTH_RATE, ResonatorError, ResonatorParameters, check_resonator
@@ -70,9 +71,7 @@ def _config(args: argparse.Namespace, res: ResonatorParameters) -> SelfCalConfig
     from .design import design
 
     omega = 0.0
-    if args.latitude is not None:
-        if not -90.0 <= args.latitude <= 90.0:
-            raise ParameterError(f"--latitude {args.latitude!r} must lie in [-90, 90] deg")
+    if args.latitude is not None:  # in [-90, 90]: options.latitude
         omega = EARTH_RATE * math.sin(math.radians(args.latitude))
     values = {"seed": args.seed, "Omega_z": omega, "engine": getattr(args, "engine", "inprocess")}
     for name in ("record", "settle", "sideband_count", "sideband_index", "sideband_spacing",
@@ -80,10 +79,6 @@ def _config(args: argparse.Namespace, res: ResonatorParameters) -> SelfCalConfig
         value = getattr(args, name, None)
         if value is not None:
             values[name] = value
-    for name in ("record", "settle", "sideband_spacing", "kappa", "max_record", "target_bias",
-                 "target_sf_ppm"):
-        if name in values and not values[name] > 0:
-            raise ParameterError(f"--{name.replace('_', '-')} {values[name]!r} must be > 0")
     if getattr(args, "record", None) is not None:
         values["auto_record"] = False  # the user's record length, checked, not changed
     return design(res, loops=_loop_overrides(args), **values)
@@ -92,16 +87,16 @@ def _config(args: argparse.Namespace, res: ResonatorParameters) -> SelfCalConfig
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="resonator parameter (f_x, Q_x, dxy, kxy, Px, phi_y, Exy, ...)")
-    p.add_argument("--noise", type=float,
+    p.add_argument("--noise", type=options.non_negative,
                    help="pick-off noise, V per sample (2.5e-4: Allan deviation 13 deg/h at 1 s)")
-    p.add_argument("--drift", type=float, nargs=2, metavar=("DF_HZ", "DAMPING_FACTOR"),
+    p.add_argument("--drift", type=options.finite, nargs=2, metavar=("DF_HZ", "DAMPING_FACTOR"),
                    help="temperature-like drift: shift both modes by DF_HZ, scale dampings")
-    p.add_argument("--latitude", type=float,
+    p.add_argument("--latitude", type=options.latitude,
                    help="deg: earth rate times sin(latitude) about the sense axis")
     p.add_argument("--loop", action="append", metavar="NAME=VALUE",
                    help="loop setting instead of the one designed for the resonator "
                         "(f_nominal, q_nominal, plant_gain, amplitude, pll_bandwidth, ...)")
-    p.add_argument("--seed", type=int, default=1, help="noise seed")
+    p.add_argument("--seed", type=options.seed, default=1, help="noise seed")
     p.add_argument("--out", help="output folder")
 
 
@@ -237,23 +232,24 @@ def register(sub: argparse._SubParsersAction) -> None:
     sc = sub.add_parser("selfcal", help="self-calibrate bias and scale factor without "
                         "rotation (US 9,482,553), carrier-level")
     _common(sc)
-    sc.add_argument("--record", type=float,
+    sc.add_argument("--record", type=options.positive,
                     help="s per mode, whole periods of the spacing (default: 10 s, longer "
                          "when the 1-sigmas need it, up to --max-record)")
-    sc.add_argument("--max-record", dest="max_record", type=float,
+    sc.add_argument("--max-record", dest="max_record", type=options.positive,
                     help="s, longest record chosen for the targets (default 120)")
-    sc.add_argument("--target-bias", dest="target_bias", type=float,
+    sc.add_argument("--target-bias", dest="target_bias", type=options.positive,
                     help="rad/s, bias 1-sigma to reach (default earth rate / 3, 2.4e-5)")
-    sc.add_argument("--target-sf-ppm", dest="target_sf_ppm", type=float,
+    sc.add_argument("--target-sf-ppm", dest="target_sf_ppm", type=options.positive,
                     help="ppm, scale-factor 1-sigma to reach (default 30)")
-    sc.add_argument("--settle", type=float, help="s before each record (default 8)")
-    sc.add_argument("--sidebands", dest="sideband_count", type=int,
+    sc.add_argument("--settle", type=options.non_negative, help="s before each record (default 8)")
+    sc.add_argument("--sidebands", dest="sideband_count", type=options.count,
                     help="number of sideband tones (default 7)")
-    sc.add_argument("--index", dest="sideband_index", type=float,
+    sc.add_argument("--index", dest="sideband_index", type=options.positive,
                     help="modulation index per tone (default 0.04)")
-    sc.add_argument("--spacing", dest="sideband_spacing", type=float,
+    sc.add_argument("--spacing", dest="sideband_spacing", type=options.positive,
                     help="Hz between tones (default 0.2)")
-    sc.add_argument("--kappa", type=float, help="Bryant factor from the factory (default 0.8)")
+    sc.add_argument("--kappa", type=options.positive,
+                    help="Bryant factor from the factory (default 0.8)")
     sc.add_argument("--compare-ratetable", dest="compare_ratetable", action="store_true",
                     help="also run the rate table on the same gyro and print the differences")
     sc.add_argument("--engine", choices=("inprocess", "fmu"), default="inprocess",
@@ -265,12 +261,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     lot = sub.add_parser("selfcal-lot", help="self-calibrate a lot of resonators drawn "
                          "from a tolerance model (3-15 kHz, Q 5e3-2e5), each checked "
                          "against its rate table, on Dask")
-    lot.add_argument("-n", type=int, default=100, help="resonators (default 100)")
-    lot.add_argument("--seed", type=int, default=2026, help="seed of the draw")
+    lot.add_argument("-n", type=options.count, default=100, help="resonators (default 100)")
+    lot.add_argument("--seed", type=options.seed, default=2026, help="seed of the draw")
     lot.add_argument("--model", action="append", metavar="NAME=VALUE",
                      help="tolerance model field (f_min, Q_max, split_max, "
                           "cubic_shift_max, noise_density, ...; see selfcal/lot.py)")
-    lot.add_argument("--workers", type=int, help="local Dask workers (default: all cores)")
+    lot.add_argument("--workers", type=options.count,
+                     help="local Dask workers (default: all cores)")
     lot.add_argument("--scheduler", help="address of an existing Dask scheduler")
     lot.add_argument("--out", help="output folder (default runs/selfcal_lot)")
     lot.add_argument("--quiet", action="store_true", help="no progress line")
@@ -280,10 +277,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     rt = sub.add_parser("ratetable", help="conventional calibration on a simulated rate "
                         "table (the ground truth of selfcal)")
     _common(rt)
-    rt.add_argument("--rates", type=float, nargs="+", help="rad/s (default -1 .. 1, 7 rates)")
-    rt.add_argument("--dwell", type=float, default=None,
+    rt.add_argument("--rates", type=options.finite, nargs="+",
+                    help="rad/s (default -1 .. 1, 7 rates)")
+    rt.add_argument("--dwell", type=options.positive, default=None,
                     help="s at each rate (default: max(1, 3 / slowest loop bandwidth))")
-    rt.add_argument("--average", type=float, default=None,
+    rt.add_argument("--average", type=options.positive, default=None,
                     help="s averaged at each rate (default: the second half of the dwell)")
     rt.add_argument("--feedforward-from", dest="feedforward_from",
                     help="summary.json of a selfcal run: use its feed-forward correction")

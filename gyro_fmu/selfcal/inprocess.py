@@ -10,14 +10,17 @@ without a call per step.
 from __future__ import annotations
 
 import ctypes
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..core import selfcal as c
+from ..cosim.master import check_result_memory
 from ..model.loops import OUTPUTS as LOOP_OUTPUTS
 from ..model.loops import LoopSettings, LoopsModel
 from ..model.resonator import ResonatorError, ResonatorModel, ResonatorParameters
+from ..options import MAX_STEPS
 
 #: Recorded columns (after "time").
 COLUMNS = ("time", *LOOP_OUTPUTS, "Vpx", "Vpy")
@@ -61,14 +64,22 @@ class CarrierSimulation:
         if Omega_z is not None:
             self.Omega_z = Omega_z
         h = self.step
-        n = round(duration / h)
+        for name, value in (("duration", duration), ("record_from", record_from),
+                            ("Omega_z", self.Omega_z), ("step", h)):
+            if not math.isfinite(value):
+                raise ResonatorError(f"{name}={value!r} is not finite: give a finite number")
+        n = round(duration / h) if h > 0.0 else 0
         if n < 1:
-            raise ValueError(f"duration {duration!r} s is shorter than the step {h} s")
+            raise ResonatorError(f"duration {duration!r} s is shorter than the step {h} s")
+        if self.k + n > MAX_STEPS:
+            raise ResonatorError(f"duration {duration!r} s is {n:.3g} steps of {h:g} s, more "
+                                 f"than the {MAX_STEPS:.3g} a run may take: shorten it")
         k_end = self.k + n
-        r0 = max(self.k, round(record_from / h))
+        r0 = max(self.k, round(record_from / h)) if record_from > 0.0 else self.k
         if r0 > k_end:
-            raise ValueError(f"record_from {record_from!r} s is after the end of the run "
-                             f"({k_end * h:g} s): record from at most the end")
+            raise ResonatorError(f"record_from {record_from!r} s is after the end of the run "
+                                 f"({k_end * h:g} s): record from at most the end")
+        check_result_memory(k_end - r0 + 1, len(COLUMNS))
         rec = np.zeros((k_end - r0 + 1, len(COLUMNS)))
         pl, lo = self.plant, self.loops
         lib, msg, done = c.selfcal_core(), c.message_buffer(), ctypes.c_int64()
@@ -76,7 +87,7 @@ class CarrierSimulation:
         while self.k < k_end:  # in chunks, so that Ctrl-C is seen between them
             m = min(chunk, k_end - self.k)
             failed = lib.gyro_carrier_run(ctypes.byref(pl.core), ctypes.byref(lo.core), self.k,
-                                          m, h, float(self.Omega_z), data, r0,
+                                          m, h, float(self.Omega_z), data, len(rec), r0,
                                           ctypes.byref(done), msg, len(msg))
             self.k += done.value
             if failed:

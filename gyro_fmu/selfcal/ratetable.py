@@ -17,7 +17,8 @@ import numpy as np
 from ..errors import GyroFmuError
 from ..model.loops import LoopsError, LoopSettings
 from ..model.resonator import ResonatorParameters
-from .inprocess import CarrierSimulation
+from . import alarms
+from .inprocess import MAX_STEPS, CarrierSimulation
 from .sequence import FeedForward, SelfCalConfig
 
 #: Table rates, rad/s (about +-6, 29 and 57 deg/s, and zero).
@@ -88,6 +89,10 @@ def rate_table(res: ResonatorParameters, ff: FeedForward, cfg: SelfCalConfig | N
         raise RateTableError(f"dwell={dwell!r} s: give a finite time of at least "
                              f"{10 * cfg.step:g} s (10 steps); {max(1.0, T):g} s settles "
                              "these loops")
+    if (settle + len(rates) * dwell) / cfg.step > MAX_STEPS:
+        raise RateTableError(f"settle={settle:g} s and {len(rates)} dwells of {dwell:g} s "
+                             f"are more than the {MAX_STEPS:.3g} steps of {cfg.step:g} s a "
+                             "run may take: shorten the dwell or the settle")
     if not (math.isfinite(average) and 2 * cfg.step <= average <= dwell):
         raise RateTableError(f"average={average!r} s must lie between {2 * cfg.step:g} s "
                              f"and the dwell ({dwell:g} s)")
@@ -97,7 +102,14 @@ def rate_table(res: ResonatorParameters, ff: FeedForward, cfg: SelfCalConfig | N
     for rate in rates:
         t_end = (sim.k * sim.step) + dwell
         rec = sim.run(dwell, record_from=t_end - average, Omega_z=rate)
+        problems = alarms.lock_problems(1, rec["phase_error"], rec["amplitude"], rec["gain"],
+                                        0.0, lo.amplitude, lo.drive_limit)
         out = rec["rate"][:-1]
+        if problems or not np.all(np.isfinite(out)):
+            raise RateTableError(
+                f"rate table refused at {rate:g} rad/s (pick-off noise {res.noise:g} V per "
+                f"sample on a {lo.amplitude:g} V carrier): "
+                + "; ".join(problems or ["the rate output is not finite"]))
         outputs.append(float(np.mean(out)))
         half = len(out) // 2
         drifts.append(abs(float(np.mean(out[half:]) - np.mean(out[:half]))))

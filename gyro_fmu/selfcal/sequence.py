@@ -22,8 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import GyroFmuError
 from ..model.loops import LoopSettings
 from ..model.resonator import EARTH_RATE, ResonatorParameters
+from ..options import SEED_MAX
 from . import alarms
 from .estimator import (
     ModeData,
@@ -33,7 +35,7 @@ from .estimator import (
     cubic_terms,
     fit_sidebands,
 )
-from .inprocess import DEFAULT_STEP, CarrierRecord, CarrierSimulation
+from .inprocess import DEFAULT_STEP, MAX_STEPS, CarrierRecord, CarrierSimulation
 from .phasors import phasors, phasors_and_variances
 
 
@@ -68,10 +70,73 @@ class SelfCalConfig:
     models_dir: str | None = None  #: folder of the FMUs (engine "fmu"; default models/)
     loops: LoopSettings = field(default_factory=LoopSettings)
 
+    def __post_init__(self) -> None:
+        problems = self.problems()
+        if problems:
+            raise SelfCalConfigError("; ".join(problems))
+
+    def problems(self) -> list[str]:
+        """What makes this calibration unusable, each naming the value and the remedy."""
+        out = []
+        positive = ("step", "record", "max_record", "target_bias", "target_sf_ppm",
+                    "sideband_spacing", "kappa", "ring_offset")
+        non_negative = ("ff_duration", "settle", "sideband_index", "ring_amplitude")
+        for name in (*positive, *non_negative, "Omega_z"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                out.append(f"{name}={value!r} is not a number: give a number")
+            elif not math.isfinite(value):
+                out.append(f"{name}={value!r} is not finite: give a finite number")
+            elif name in positive and not value > 0.0:
+                out.append(f"{name}={value!r} must be > 0")
+            elif name in non_negative and value < 0.0:
+                out.append(f"{name}={value!r} must be >= 0")
+        for name, low, high in (("sideband_count", 1, 1000), ("seed", 0, MAX_SEED)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or not \
+                    low <= value <= high:
+                out.append(f"{name}={value!r} must be a whole number in [{low}, {high}]")
+        if out:
+            return out
+        longest = max(self.record, self.max_record)
+        if max(self.settle + longest, self.ff_duration) / self.step > MAX_STEPS:
+            out.append(f"a record of {self.settle + longest:g} s (settle + record or "
+                       f"max_record) at {self.step:g} s steps is more than the "
+                       f"{MAX_STEPS:.3g} steps a run may take: shorten settle, record or "
+                       "max_record, or lengthen the step")
+        if self.kappa > 1.0:
+            out.append(f"kappa={self.kappa:g} is no Bryant factor (the fraction of the "
+                       "Coriolis coupling the vibrating mass carries): give one in (0, 1]")
+        if self.sideband_count * self.sideband_index >= 1.0:
+            out.append(f"sideband_count x sideband_index = {self.sideband_count} x "
+                       f"{self.sideband_index:g} >= 1 modulates the carrier's amplitude "
+                       "through zero: keep their product below 1 (default 5 x 0.04)")
+        nyquist = 0.5 / self.step
+        if self.sideband_count * self.sideband_spacing >= nyquist:
+            out.append(f"sidebands up to {self.sideband_count} x sideband_spacing = "
+                       f"{self.sideband_count * self.sideband_spacing:g} Hz from the carrier "
+                       f"reach the Nyquist frequency {nyquist:g} Hz of the {self.step:g} s "
+                       "step: give a smaller sideband_spacing")
+        if 1.0 / self.sideband_spacing > longest:
+            out.append(f"sideband_spacing={self.sideband_spacing:g} Hz: one period "
+                       f"({1.0 / self.sideband_spacing:g} s) is longer than the longest "
+                       f"record ({longest:g} s): give a larger spacing or a longer record")
+        if self.engine not in ("inprocess", "fmu"):
+            out.append(f"engine={self.engine!r}: use 'inprocess' or 'fmu'")
+        return out
+
     def as_dict(self) -> dict:
         d = asdict(self)
         d["loops"] = self.loops.as_dict()
         return d
+
+
+class SelfCalConfigError(GyroFmuError, ValueError):
+    """A calibration setting is unusable; the message names it and the remedy."""
+
+
+#: Largest seed: the calibration's seeds (seed + 0..10) reach the FMUs' 32-bit Integer.
+MAX_SEED = SEED_MAX - 16
 
 
 @dataclass

@@ -14,6 +14,7 @@ import sys
 import time
 from pathlib import Path
 
+from .. import options
 from ..model.parameters import PARAMETER_NAMES, PRESETS, ParameterError
 from ..selfcal.cli import name_values
 
@@ -254,32 +255,32 @@ def register(sub: argparse._SubParsersAction) -> None:
     sp.add_argument("--tuning", action="append", metavar="NAME=VALUE",
                     help="observer tuning field (ObserverTuning), e.g. rate_model=2; "
                          "repeatable")
-    sp.add_argument("--noise", type=float,
+    sp.add_argument("--noise", type=options.non_negative,
                     help="pick-off noise std as a fraction of each signal's peak "
                          "(default 1e-4)")
-    sp.add_argument("--noise-density", dest="noise_density", type=float,
+    sp.add_argument("--noise-density", dest="noise_density", type=options.non_negative,
                     help="pick-off noise of x and y in m/sqrt(Hz), one-sided; per-sample "
                          "std = density / sqrt(2 step). Replaces --noise")
-    sp.add_argument("--seed", type=int, help="noise seed (default 0)")
-    sp.add_argument("--step", type=float, help="s (default 5e-6)")
-    sp.add_argument("--duration", type=float,
+    sp.add_argument("--seed", type=options.seed, help="noise seed (default 0)")
+    sp.add_argument("--step", type=options.positive, help="s (default 5e-6)")
+    sp.add_argument("--duration", type=options.positive,
                     help="s of the constant-rate Allan/start-up record (default 20)")
-    sp.add_argument("--rate", type=float, help="rad/s of that record (default 0)")
-    sp.add_argument("--full-scale", dest="full_scale", type=float,
+    sp.add_argument("--rate", type=options.finite, help="rad/s of that record (default 0)")
+    sp.add_argument("--full-scale", dest="full_scale", type=options.positive,
                     help="rad/s; scale-factor rates span +-full scale (default 5)")
-    sp.add_argument("--sf-points", dest="sf_points", type=int,
+    sp.add_argument("--sf-points", dest="sf_points", type=options.count,
                     help="number of scale-factor rates (default 11)")
-    sp.add_argument("--sf-record", dest="sf_record", type=float,
+    sp.add_argument("--sf-record", dest="sf_record", type=options.positive,
                     help="s averaged per scale-factor rate (default 0.2)")
     sp.add_argument("--bw-frequencies", dest="bw_frequencies", type=_frequencies,
                     help="Hz, comma-separated (default 16 from 10 to 5000)")
-    sp.add_argument("--bw-amplitude", dest="bw_amplitude", type=float,
+    sp.add_argument("--bw-amplitude", dest="bw_amplitude", type=options.positive,
                     help="rad/s of each rate sine (default 1)")
-    sp.add_argument("--bw-segment", dest="bw_segment", type=float,
+    sp.add_argument("--bw-segment", dest="bw_segment", type=options.positive,
                     help="s per frequency, at least 5 periods (default 0.1)")
-    sp.add_argument("--startup-band", dest="startup_band", type=float,
+    sp.add_argument("--startup-band", dest="startup_band", type=options.positive,
                     help="rad/s around the true rate (default 1 %% of full scale)")
-    sp.add_argument("--startup-window", dest="startup_window", type=float,
+    sp.add_argument("--startup-window", dest="startup_window", type=options.positive,
                     help="s the output is averaged over for the start-up time (default: "
                          "from the noise, so that noise alone stays in the band)")
     sp.add_argument("--out", default="runs/spec", help="output folder (default runs/spec)")

@@ -12,12 +12,19 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from ..cosim.master import check_result_memory
 from ..errors import GyroFmuError
 from ..estimation.observer import GyroStateObserver, ObserverDivergedError, ObserverTuning
 from ..model.measurement import UNKNOWNS
 from ..model.parameters import DEFAULT_PRESET, GyroParameters, ParameterError
 from ..model.plant import GyroPlantModel, MeasurementNoise
-from ..system.scenario import Scenario, absolute_noise, default_initial_guess
+from ..system.scenario import (
+    NOISE_TO_PEAK_MAX,
+    Scenario,
+    absolute_noise,
+    default_initial_guess,
+    noise_free_run,
+)
 
 ARW_DEG_PER_SQRT_H = math.degrees(1.0) * 60.0
 
@@ -104,19 +111,48 @@ class SpecConfig:
         if self.sf_points < 3:
             raise ParameterError(f"sf_points={self.sf_points} must be >= 3 for a line and "
                                  "its residuals")
+        if self.duration < 200 * self.step:
+            raise ParameterError(f"duration={self.duration:g} s is shorter than 200 steps of "
+                                 f"step={self.step:g} s: lengthen the duration or shorten "
+                                 "the step")
+        if self.startup_window is not None and self.startup_window >= self.duration:
+            raise ParameterError(f"startup_window={self.startup_window:g} s is not shorter "
+                                 f"than the record (duration={self.duration:g} s): give a "
+                                 "shorter window or a longer duration")
+        for name, record in (("duration", self.duration), ("sf_record", self.sf_record),
+                             ("bw_segment", self.bw_segment * len(self.bw_frequencies))):
+            check_result_memory(record / self.step, 3, what=f"a record of {record:g} s "
+                                f"({name}) at {self.step:g} s steps",
+                                remedy=f"shorten {name} or lengthen the step")
         if len(self.bw_frequencies) < 2 or any(
                 not (math.isfinite(f) and 0.0 < f < 0.25 / self.step)
                 for f in self.bw_frequencies):
             raise ParameterError(
                 f"bw_frequencies {list(self.bw_frequencies)} Hz: give at least 2, each > 0 "
                 f"and below a quarter of the sampling rate ({0.25 / self.step:g} Hz)")
-        if self.duration < 200 * self.step:
-            raise ParameterError(f"duration={self.duration} s is shorter than 200 steps")
         unknown = sorted(set(self.tuning) - set(_TUNING_NAMES))
         if unknown:
             raise ParameterError(f"unknown observer tuning {unknown}: names are "
                                  f"{', '.join(_TUNING_NAMES)}")
-        self.scenario  # noqa: B018 - a bad preset or override fails here
+        sc = self.scenario  # a bad preset or override fails here
+        for name, value in (("rate", self.rate), ("full_scale", self.full_scale),
+                            ("rate + bw_amplitude", abs(self.rate) + self.bw_amplitude)):
+            problem = sc.params.rate_problem(name, value)
+            if problem:
+                raise ParameterError(problem)
+        if self.band > self.full_scale:
+            raise ParameterError(f"startup_band={self.band:g} rad/s is wider than the full "
+                                 f"scale ({self.full_scale:g} rad/s): every estimate would be "
+                                 "'settled'; give a narrower band")
+        if self.noise_density is not None:
+            std = density_to_std(self.noise_density, self.step)
+            peak = float(np.max(np.abs(noise_free_run(sc)[:, 0])))
+            if not std < NOISE_TO_PEAK_MAX * peak:
+                raise ParameterError(
+                    f"noise_density={self.noise_density:g} m/sqrt(Hz) is {std:.3g} m per "
+                    f"{self.step:g} s sample, more than {NOISE_TO_PEAK_MAX:g} times the "
+                    f"signal's peak ({peak:.3g} m): no record carries the rate through "
+                    "that; give a pick-off noise of physical size")
 
     @property
     def scenario(self) -> Scenario:

@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from dataclasses import fields, replace
 from pathlib import Path
 
+from .. import options
 from ..fmu.build import MODELS_DIR
 from ..model.parameters import PARAMETER_NAMES, PRESETS, ParameterError
 from ..model.rate import RateProfile
@@ -27,28 +27,6 @@ def _assignments(items: list[str] | None, what: str) -> dict[str, float]:
         except ValueError:
             raise ParameterError(f"{what} {item!r}: {value!r} is not a number") from None
     return out
-
-
-def _positive_float(text: str) -> float:
-    """argparse type: a finite number > 0 (a window, a step, a frequency step)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(value) and value > 0.0):
-        raise argparse.ArgumentTypeError(f"{value!r} must be a finite number > 0")
-    return value
-
-
-def _positive_int(text: str) -> int:
-    """argparse type: an integer >= 1 (argparse reports the refusal with exit 2)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{value} must be at least 1")
-    return value
 
 
 def _scenario_from(args: argparse.Namespace) -> Scenario:
@@ -232,13 +210,12 @@ def _cmd_identify(args: argparse.Namespace) -> int:
 
 
 def _cmd_design_drive(args: argparse.Namespace) -> int:
-    import numpy as np
 
-    from ..estimation.excitation import crb, design_drive, heat_map
+    from ..estimation.excitation import crb, design_drive, frequency_grid, heat_map
 
     sc = _scenario_from(args)
     weights = _assignments(args.weight, "--weight") if args.weight else None
-    freqs = np.arange(args.f_min, args.f_max + 0.5 * args.f_step, args.f_step)
+    freqs = frequency_grid(args.f_min, args.f_max, args.f_step)
     force = args.force_limit or (sc.the_drive.A1 + sc.the_drive.A2)
     Omega = sc.rate.Omega_z(0.0)
     noise = args.noise if args.noise is not None else 1e-4
@@ -309,16 +286,16 @@ def _scenario_options(r: argparse.ArgumentParser) -> None:
                    "step:AMP:T0[:OFFSET] | ramp:SLOPE:T0[:OFFSET] (rad/s, Hz, s)")
     r.add_argument("--drive", action="append", metavar="NAME=VALUE",
                    help="drive setting A1, f1, A2, f2 (N, Hz)")
-    r.add_argument("--stop-time", dest="stop_time", type=float, help="s (default 0.1)")
-    r.add_argument("--step", type=float, help="communication step, s (default 5e-6)")
-    r.add_argument("--noise", type=float,
+    r.add_argument("--stop-time", dest="stop_time", type=options.positive, help="s (default 0.1)")
+    r.add_argument("--step", type=options.positive, help="communication step, s (default 5e-6)")
+    r.add_argument("--noise", type=options.non_negative,
                    help="measurement noise std as a fraction of each signal's peak")
-    r.add_argument("--seed", type=int, help="noise seed")
+    r.add_argument("--seed", type=options.seed, help="noise seed")
     r.add_argument("--measured-pair", dest="measured_pair", type=int, choices=(1, 2),
                    help="1: positions x, y (default); 2: velocities vx, vy")
     r.add_argument("--initial", action="append", metavar="NAME=VALUE",
                    help="observer initial guess of a parameter (default: truth x factors)")
-    r.add_argument("--Omega-z-0", dest="Omega_z_0", type=float,
+    r.add_argument("--Omega-z-0", dest="Omega_z_0", type=options.finite,
                    help="observer initial rate guess, rad/s")
     r.add_argument("--tuning", action="append", metavar="NAME=VALUE",
                    help="observer tuning parameter (see GyroObserver.fmu)")
@@ -341,7 +318,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     o = sub.add_parser("observability", parents=[common],
                        help="rank and condition of the eq. 7 test, one tone vs two")
-    o.add_argument("--window", type=_positive_float, default=0.04, help="window length, s")
+    o.add_argument("--window", type=options.positive, default=0.04, help="window length, s")
     o.set_defaults(func=_cmd_observability)
 
     i = sub.add_parser("identify", parents=[common],
@@ -349,10 +326,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                             "Omega_z to a recorded run, with the Cramer-Rao bound")
     i.add_argument("results", help="CSV with time, drive.ux[, drive.uy] and plant.x, plant.y "
                                    "(--measured-pair 1) or plant.vx, plant.vy (2)")
-    i.add_argument("--noise-std", dest="noise_std", type=float, nargs=2, metavar=("STD1", "STD2"),
+    i.add_argument("--noise-std", dest="noise_std", type=options.positive, nargs=2,
+                   metavar=("STD1", "STD2"),
                    help="absolute noise std of the two measured signals (default: estimated "
                         "from the residuals)")
-    i.add_argument("--window", type=_positive_float,
+    i.add_argument("--window", type=options.positive,
                    help="use only the first WINDOW s of the record")
     i.add_argument("--fit-initial-state", dest="fit_initial_state", action="store_true",
                    help="fit the initial state too (default: the plant is at rest at the "
@@ -365,13 +343,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     dd = sub.add_parser("design-drive", parents=[common],
                         help="Cramer-Rao bound over a grid of two-tone drives; propose the "
                              "pair minimizing the bound on Omega_z (or a weighted sum)")
-    dd.add_argument("--window", type=_positive_float, default=0.04, help="window length, s")
-    dd.add_argument("--f-min", dest="f_min", type=float, default=500.0, help="Hz")
-    dd.add_argument("--f-max", dest="f_max", type=float, default=6000.0, help="Hz")
-    dd.add_argument("--f-step", dest="f_step", type=_positive_float, default=250.0, help="Hz")
-    dd.add_argument("--force-limit", dest="force_limit", type=float,
+    dd.add_argument("--window", type=options.positive, default=0.04, help="window length, s")
+    dd.add_argument("--f-min", dest="f_min", type=options.positive, default=500.0, help="Hz")
+    dd.add_argument("--f-max", dest="f_max", type=options.positive, default=6000.0, help="Hz")
+    dd.add_argument("--f-step", dest="f_step", type=options.positive, default=250.0, help="Hz")
+    dd.add_argument("--force-limit", dest="force_limit", type=options.positive,
                     help="A1 + A2, N (default: the scenario drive's A1 + A2)")
-    dd.add_argument("--splits", type=float, nargs="+", default=[0.25, 0.5, 0.75],
+    dd.add_argument("--splits", type=options.open_fraction, nargs="+", default=[0.25, 0.5, 0.75],
                     help="fractions of the force limit on tone 1")
     dd.add_argument("--noise-kind", dest="noise_kind", choices=("relative", "absolute"),
                     default="relative", help="--noise as a fraction of each signal's peak "
@@ -400,7 +378,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     c.add_argument("--models", default=str(MODELS_DIR),
                    help="folder of our FMUs (default ./models)")
     c.add_argument("--dest", help="container file (default MODELS/GyroSystem.fmu)")
-    c.add_argument("--step", type=float, default=5e-6,
+    c.add_argument("--step", type=options.positive, default=5e-6,
                    help="internal fixed step, s (default 5e-6)")
     c.set_defaults(func=_cmd_container)
 

@@ -29,6 +29,7 @@ the scenario step, 5 us); a host's communication step must be a multiple of it.
 
 from __future__ import annotations
 
+import math
 import shutil
 import tempfile
 import zipfile
@@ -40,6 +41,7 @@ from fmpy import read_model_description
 
 from ..cosim.master import CoSimulationError
 from ..fmu.build import MODELS_DIR
+from ..model.drive import TwoToneDrive
 from .scenario import CONNECTIONS, INSTANCE_FMUS, Scenario, fmu_system
 
 CONTAINER_NAME = "GyroSystem"
@@ -105,8 +107,11 @@ def build_container(
     """
     models_dir = Path(models_dir)
     dest = models_dir / f"{CONTAINER_NAME}.fmu" if dest is None else Path(dest)
-    if not step > 0.0:
-        raise ContainerError(f"step {step!r} s must be > 0")
+    if not (math.isfinite(step) and step > 0.0):
+        raise ContainerError(f"step={step!r} s must be a finite number > 0")
+    problem = TwoToneDrive().sampling_problem(step)  # the drive the container starts with
+    if problem:
+        raise ContainerError(f"step={step:g} s: {problem}")
     names = exposed_names(models_dir)
     variables = _variables(models_dir)
     from fmu_manipulation_toolbox.assembly import AssemblyNode

@@ -33,6 +33,10 @@ from ..model.parameters import (
 )
 from ..model.plant import MEASURED, GyroPlantModel, MeasurementNoise
 from ..model.rate import RateKind, RateProfile
+from ..options import MAX_STEPS
+
+#: Largest measurement noise per sample over the signal's peak a run may simulate.
+NOISE_TO_PEAK_MAX = 1e6
 
 
 @dataclass(frozen=True)
@@ -56,12 +60,18 @@ class Scenario:
         for name, value in (("stop_time", self.stop_time), ("step", self.step)):
             if not (math.isfinite(value) and value > 0.0):
                 raise ParameterError(f"{name}={value!r} s must be a finite number > 0")
+        if self.stop_time / self.step > MAX_STEPS:
+            raise ParameterError(
+                f"stop_time={self.stop_time:g} s is {self.stop_time / self.step:.3g} steps of "
+                f"{self.step:g} s, more than the {MAX_STEPS:.3g} a run may take: shorten it")
         if self.step > self.stop_time:
             raise ParameterError(
                 f"step={self.step} s is longer than stop_time={self.stop_time} s"
             )
-        if not (math.isfinite(self.noise) and self.noise >= 0.0):
-            raise ParameterError(f"noise={self.noise!r} must be >= 0 (fraction of signal peak)")
+        if not (math.isfinite(self.noise) and 0.0 <= self.noise <= NOISE_TO_PEAK_MAX):
+            raise ParameterError(
+                f"noise={self.noise!r} must lie in [0, {NOISE_TO_PEAK_MAX:g}] (a fraction of "
+                "each signal's peak: beyond it no record carries the rate)")
         if self.measured_pair not in (1, 2):
             raise ParameterError(
                 f"measured_pair={self.measured_pair!r}: use 1 (positions) or 2 (velocities)"
@@ -71,7 +81,10 @@ class Scenario:
             raise ParameterError(
                 f"seed={self.seed!r} is not an integer in [0, {SEED_MAX}], the range of "
                 "GyroPlant.fmu's seed (an FMI 2.0 Integer): give such a seed")
+        if not isinstance(self.Omega_z_0, int | float) or isinstance(self.Omega_z_0, bool):
+            raise ParameterError(f"Omega_z_0={self.Omega_z_0!r} rad/s is not a number")
         self._check_signals()
+        self._check_rates()
         self._check_tuning()
         self.n_steps  # noqa: B018 - a step that does not divide the stop time
         self.params  # noqa: B018 - fail early on a bad preset or override
@@ -90,6 +103,18 @@ class Scenario:
                                  f"{known}") from None
         except ValueError as exc:
             raise ParameterError(str(exc)) from None
+
+    def _check_rates(self) -> None:
+        """The observer's rate guess and the rate profile's largest value (over the run)
+        against the fastest rate this gyro can sense (GyroParameters.rate_limit)."""
+        p = self.params
+        problems = [p.rate_problem("Omega_z_0", self.Omega_z_0)]
+        if isinstance(self.rate, RateProfile):
+            peak = p.rate_problem("Omega_z", self.rate.peak(self.stop_time))
+            problems.append(peak and f"the rate profile reaches {peak}")
+        problems = [q for q in problems if q]
+        if problems:
+            raise ParameterError("; ".join(problems))
 
     def _check_signals(self) -> None:
         """Refuse what gives a wrong number with no error: a tone or a sine rate at or

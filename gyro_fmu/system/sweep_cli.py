@@ -7,9 +7,10 @@ import argparse
 import sys
 from pathlib import Path
 
+from .. import options
 from ..fmu.build import MODELS_DIR
 from ..model.parameters import ParameterError
-from .cli import _assignments, _positive_int, _scenario_from
+from .cli import _assignments, _scenario_from
 
 
 def _print_bound(b: dict | None) -> None:
@@ -112,18 +113,18 @@ def register(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) -
     sw = sub.add_parser("sweep", parents=[common],
                         help="Monte Carlo over fabrication tolerances: N gyros, each a real "
                              "FMU co-simulation, on Dask")
-    sw.add_argument("-n", "--n", type=_positive_int, default=200, help="number of gyros")
-    sw.add_argument("--spread", type=float, default=0.10,
+    sw.add_argument("-n", "--n", type=options.count, default=200, help="number of gyros")
+    sw.add_argument("--spread", type=options.non_negative, default=0.10,
                     help="relative spread of every parameter (default 0.10)")
     sw.add_argument("--spread-of", dest="spread_of", action="append", metavar="NAME=S",
                     help="relative spread of one parameter")
     sw.add_argument("--distribution", choices=("uniform", "normal"), default="uniform",
                     help="uniform: nominal*(1+S*U(-1,1)); normal: nominal*(1+S*N(0,1))")
-    sw.add_argument("--tolerance-seed", dest="tolerance_seed", type=int, default=0)
-    sw.add_argument("--deadline", type=float, help="s (default: the stop time, 0.08)")
+    sw.add_argument("--tolerance-seed", dest="tolerance_seed", type=options.seed, default=0)
+    sw.add_argument("--deadline", type=options.positive, help="s (default: the stop time, 0.08)")
     sw.add_argument("--scheduler", help="address of an existing Dask scheduler "
                                         "(default: a local cluster)")
-    sw.add_argument("--workers", type=_positive_int,
+    sw.add_argument("--workers", type=options.count,
                     help="local cluster workers (default: all cores)")
     sw.add_argument("--models", default=str(MODELS_DIR),
                    help="folder of our FMUs (default ./models)")
