@@ -5,7 +5,8 @@ text (tests/cli_fuzz.py, the fuzzer the tests run), tabulated by class.
 
 Builds the FMUs and a short run's results.csv in a temporary folder, runs every trial in
 this process (a valid value's work is cut by an alarm after a budget: exit 130), prints
-the counts per class and every trial that is neither refused nor ran (--all: every
+the counts per class (then the file arguments given a folder, an empty, a binary, a
+UTF-16 and a Latin-1 file) and every trial that is neither refused nor ran (--all: every
 trial). Exit 1 if any trial is a traceback, an unclear refusal or a silent run.
 """
 
@@ -42,12 +43,17 @@ def main() -> int:
                    if not args.command or o[0] in args.command]
         start = time.perf_counter()
         trials = cli_fuzz.fuzz(folder, tuple(args.values), options=options)
+        files = [] if args.command else cli_fuzz.fuzz_files(folder)
         wall = time.perf_counter() - start
     counts = cli_fuzz.table(trials)
     print(f"{len(trials)} trials over {len(options)} options of "
           f"{len({c for c, _ in options})} subcommands in {wall:.0f} s")
     for outcome in ("refused", "ran", "unclear", "traceback", "silent"):
         print(f"  {outcome:<10} {counts.get(outcome, 0)}")
+    if files:
+        print(f"{len(files)} trials over {len(cli_fuzz.FILE_ARGUMENTS)} file arguments x "
+              f"{len(cli_fuzz.FILES)} careless files: {dict(cli_fuzz.table(files))}")
+    trials += files
     for t in trials:
         if args.all or t.outcome not in ("refused", "ran"):
             print(f"{t.outcome:<10} {t.command} {t.option} {t.value} (exit {t.code}): "

@@ -181,3 +181,85 @@ def fuzz(folder: Path, values: tuple[str, ...] = VALUES, budget: float = 1.5,
 
 def table(trials: list[Trial]) -> Counter:
     return Counter(t.outcome for t in trials)
+
+
+#: Each file argument of the CLI, as argv with {} where the file goes (the rest short).
+FILE_ARGUMENTS: dict[str, list[str]] = {
+    "identify RESULTS": ["identify", "{}"],
+    "validate FMU": ["validate", "{}"],
+    "doctor --fmu": ["doctor", "--no-compile", "--fmu", "{}"],
+    "report RUN_DIR": ["report", "{}"],
+    "run --fmu plant=": ["run", "--stop-time", "0.0005", "--no-figures", "--out", "out",
+                         "--fmu", "plant={}"],
+    "ratetable --feedforward-from": ["ratetable", "--dwell", "0.1", "--out", "out",
+                                     "--feedforward-from", "{}"],
+    "run --models": ["run", "--stop-time", "0.0005", "--no-figures", "--out", "out",
+                     "--models", "{}"],
+}
+#: Arguments that ask for a folder (which a folder may satisfy).
+FOLDER_ARGUMENTS = {"run --models", "report RUN_DIR"}
+#: What a careless user hands a file argument.
+FILES = ("a folder", "an empty file", "a binary file", "UTF-16 text", "Latin-1 text")
+
+
+def make_files(folder: Path) -> dict[str, Path]:
+    folder.mkdir(parents=True, exist_ok=True)
+    made = {"a folder": folder / "folder", "an empty file": folder / "empty.csv",
+            "a binary file": folder / "binary.fmu", "UTF-16 text": folder / "utf16.csv",
+            "Latin-1 text": folder / "latin1.csv"}
+    made["a folder"].mkdir(exist_ok=True)
+    made["an empty file"].write_bytes(b"")
+    made["a binary file"].write_bytes(bytes(range(256)) * 64)
+    text = "time,drive.ux,plant.x,plant.y\n0,0,0,0\n5e-6,1e-7,1e-9,1e-10 # \u00e9t\u00e9\n"
+    made["UTF-16 text"].write_text(text, encoding="utf-16")
+    made["Latin-1 text"].write_text(text, encoding="latin-1")
+    return made
+
+
+def file_trial(label: str, what: str, path: Path, folder: Path, budget: float = 3.0) -> Trial:
+    """One file argument given `what`: refused (exit 2, or validate's exit 1 with a FAIL
+    line naming the file) or a traceback; "unclear" when the refusal names neither the
+    file nor the argument; "ran" only for a folder where a folder is asked for."""
+    from gyro_fmu import cli
+
+    argv = [a.replace("{}", str(path)) for a in FILE_ARGUMENTS[label]]
+    err, out = io.StringIO(), io.StringIO()
+    code, escaped = None, None
+    previous = signal.signal(signal.SIGALRM, _alarm)
+    cwd = os.getcwd()
+    try:
+        os.chdir(folder)
+        signal.setitimer(signal.ITIMER_REAL, budget)
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
+            try:
+                code = cli.main(argv)
+            except SystemExit as exc:
+                code = exc.code if isinstance(exc.code, int) else 2
+    except KeyboardInterrupt:
+        code = 130
+    except BaseException as exc:
+        escaped = "".join(traceback.format_exception_only(type(exc), exc)).strip()
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+        os.chdir(cwd)
+    text = err.getvalue() + out.getvalue()
+    lines = [ln for ln in err.getvalue().splitlines() if ln.strip()]
+    said = escaped or (lines[-1] if lines else out.getvalue().strip()[-300:])
+    named = path.name in text or label.split()[-1].strip("=") in text
+    if escaped or "Traceback" in text:
+        outcome = "traceback"
+    elif code == 2 or (label.startswith("validate") and code == 1 and "FAIL" in text):
+        outcome = "refused" if named else "unclear"
+    elif what == "a folder" and label in FOLDER_ARGUMENTS:
+        outcome = "ran"
+    else:
+        outcome = "silent"
+    return Trial(label, what, path.name, outcome, code, said[:300])
+
+
+def fuzz_files(folder: Path) -> list[Trial]:
+    """Every file argument x every careless file, in the prepared `folder`."""
+    made = make_files(folder / "careless")
+    return [file_trial(label, what, made[what], folder) for label in FILE_ARGUMENTS
+            for what in FILES]

@@ -59,3 +59,14 @@ def test_the_classifier_sees_a_traceback_and_a_silent_run(fuzz_folder: Path, mon
     monkeypatch.setattr(scenario.Scenario, "__post_init__", unchecked)
     t = cli_fuzz.run_trial("observability", "--step", "nan", fuzz_folder, "out-check")
     assert t.outcome in ("traceback", "silent", "unclear"), t
+
+
+def test_every_file_argument_refuses_what_is_not_its_file(fuzz_folder: Path):
+    """Each file argument given a folder, an empty file, a binary file, UTF-16 and
+    Latin-1 text: one line naming the file (validate: its FAIL line), exit 2 (1)."""
+    trials = cli_fuzz.fuzz_files(fuzz_folder)
+    bad = [t for t in trials if t.outcome not in ("refused", "ran")]
+    print(f"{len(trials)} trials: {dict(cli_fuzz.table(trials))}")
+    assert not bad, "\n".join(f"{t.outcome}: {t.command} given {t.option} (exit {t.code}): "
+                              f"{t.said}" for t in bad)
+    assert len(trials) == len(cli_fuzz.FILE_ARGUMENTS) * len(cli_fuzz.FILES)

@@ -19,7 +19,7 @@ from ..model.resonator import EARTH_RATE, ResonatorError, ResonatorParameters, c
 
 if TYPE_CHECKING:  # the parser is built without the calibration's stack (scipy.optimize)
     from .alarms import CalibrationRefusedError
-    from .sequence import SelfCalConfig
+    from .sequence import FeedForward, SelfCalConfig
 
 RESONATOR_NAMES = tuple(f.name for f in fields(ResonatorParameters))
 
@@ -82,6 +82,29 @@ def _config(args: argparse.Namespace, res: ResonatorParameters) -> SelfCalConfig
     if getattr(args, "record", None) is not None:
         values["auto_record"] = False  # the user's record length, checked, not changed
     return design(res, loops=_loop_overrides(args), **values)
+
+
+def _feedforward_from(path: Path) -> FeedForward:
+    """Step 1's result from a selfcal summary.json, each defect named with the file."""
+    from .sequence import FeedForward
+
+    remedy = "give the summary.json a `gyro-fmu selfcal` wrote"
+    try:
+        s = json.loads(path.read_bytes().decode("utf-8"))
+        rho = s["relative_pickoff_gain"] * np.exp(1j * s["relative_pickoff_phase_rad"])
+        E = np.array(s["feedthrough_V_per_V"], dtype=float)
+    except OSError as exc:
+        raise ParameterError(f"--feedforward-from {path}: {exc.strerror}: {remedy}") from None
+    except UnicodeDecodeError as exc:
+        raise ParameterError(f"--feedforward-from {path} is not UTF-8 text (byte "
+                             f"{exc.object[exc.start]:#04x} at {exc.start}): {remedy}") from None
+    except (ValueError, KeyError, TypeError) as exc:
+        raise ParameterError(f"--feedforward-from {path} holds no feed-forward "
+                             f"({type(exc).__name__}: {exc}): {remedy}") from None
+    if E.shape != (2, 2) or not (np.all(np.isfinite(E)) and np.isfinite(rho)):
+        raise ParameterError(f"--feedforward-from {path}: feedthrough_V_per_V must be 2 x 2 "
+                             f"and every value finite: {remedy}")
+    return FeedForward(E, complex(rho), np.zeros((2, 2)))
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -163,7 +186,7 @@ def _write_refusal(args: argparse.Namespace, exc: CalibrationRefusedError) -> No
 def _cmd_ratetable(args: argparse.Namespace) -> int:
     from .phasors import PhasorError
     from .ratetable import DEFAULT_RATES, RateTableError, rate_table
-    from .sequence import FeedForward, measure_feedforward
+    from .sequence import measure_feedforward
 
     rates = tuple(args.rates) if args.rates else DEFAULT_RATES
     if len(set(rates)) < 2 or not all(math.isfinite(r) for r in rates):
@@ -172,9 +195,7 @@ def _cmd_ratetable(args: argparse.Namespace) -> int:
         res = _resonator(args)
         cfg = _config(args, res)
         if args.feedforward_from:
-            s = json.loads(Path(args.feedforward_from).read_text())
-            rho = s["relative_pickoff_gain"] * np.exp(1j * s["relative_pickoff_phase_rad"])
-            ff = FeedForward(np.array(s["feedthrough_V_per_V"]), complex(rho), np.zeros((2, 2)))
+            ff = _feedforward_from(Path(args.feedforward_from))
         else:
             ff = measure_feedforward(res, cfg)
         table = rate_table(res, ff, cfg, rates=rates, dwell=args.dwell, average=args.average)
