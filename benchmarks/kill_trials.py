@@ -29,7 +29,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from gyro_fmu.system.outputs import file_digest
+from gyro_fmu.outputs import file_digest
 
 
 def gyro_fmu(*args: str, cwd: Path) -> subprocess.CompletedProcess:

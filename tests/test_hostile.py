@@ -341,7 +341,7 @@ def test_outputs_are_whole_and_known_to_belong_together(tmp_path, capsys):
     import subprocess
     import sys
 
-    from gyro_fmu.system.outputs import LOCK
+    from gyro_fmu.outputs import LOCK
 
     a, b = tmp_path / "a", tmp_path / "b"
     for folder, seed in ((a, 1), (b, 2)):

@@ -40,6 +40,7 @@ import numpy as np
 from ..model.drive import TwoToneDrive
 from ..model.measurement import UNKNOWNS
 from ..model.parameters import GyroParameters, ParameterError
+from ..outputs import save_figure
 from . import fisher
 from .metrics import tolerance
 from .sensitivity import drive_tones, window_jacobian
@@ -275,6 +276,6 @@ def heat_map(design: DriveDesign, path: Path, name: str = "Omega_z") -> Path:
                  "dotted: natural frequencies", fontsize=9)
     ax.legend(loc="upper left", fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return Path(path)

@@ -16,6 +16,7 @@ from .. import options
 from ..model.loops import LoopsError
 from ..model.parameters import ParameterError
 from ..model.resonator import EARTH_RATE, ResonatorError, ResonatorParameters, check_resonator
+from ..outputs import write_json
 
 if TYPE_CHECKING:  # the parser is built without the calibration's stack (scipy.optimize)
     from .alarms import CalibrationRefusedError
@@ -164,7 +165,8 @@ def _cmd_selfcal(args: argparse.Namespace) -> int:
               f"(table unsettled by {table.unsettled:.1e} rad/s)")
         summary["ratetable"] = table.summary()
         summary["difference"] = {"bias_rad_s": d_bias, "scale_factor_ppm": d_sf}
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=_json))
+    (out / "sidebands.png").unlink(missing_ok=True)  # an old run's, never beside this one
+    write_json(out / "summary.json", summary, default=_json)
     if not args.no_figures:
         from .figures import sideband_figure
 
@@ -177,8 +179,7 @@ def _write_refusal(args: argparse.Namespace, exc: CalibrationRefusedError) -> No
     """A refused calibration leaves its reasons on disk, and no number."""
     out = Path(args.out or "runs/selfcal")
     out.mkdir(parents=True, exist_ok=True)
-    (out / "summary.json").write_text(json.dumps(
-        {"refused": exc.problems, "calibrated": False}, indent=2))
+    write_json(out / "summary.json", {"refused": exc.problems, "calibrated": False})
     for problem in exc.problems[1:]:
         print(f"gyro-fmu: also: {problem}", file=sys.stderr)
 
@@ -203,8 +204,8 @@ def _cmd_ratetable(args: argparse.Namespace) -> int:
         raise ParameterError(str(exc)) from None
     out = Path(args.out or "runs/ratetable")
     out.mkdir(parents=True, exist_ok=True)
-    (out / "summary.json").write_text(json.dumps(
-        {"resonator": res.as_dict(), **table.summary()}, indent=2, default=_json))
+    write_json(out / "summary.json", {"resonator": res.as_dict(), **table.summary()},
+               default=_json)
     print(f"rate table, {len(rates)} rates: bias {table.bias:+.4e} rad/s (1 sigma "
           f"{table.sigma_bias:.1e}), scale factor {table.scale_factor:.6f} V/(rad/s) "
           f"(1 sigma {table.sigma_scale_factor / table.scale_factor * 1e6:.1f} ppm), "

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..outputs import save_figure
 from .estimator import transfer
 from .sequence import SelfCalResult
 
@@ -62,6 +63,6 @@ def sideband_figure(result: SelfCalResult, path: Path) -> Path:
                  f"{fit.rms_residual:.2e} V")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path

@@ -21,7 +21,6 @@ what must never happen) or `failed` (an error, named). The runs are Dask tasks
 from __future__ import annotations
 
 import csv
-import json
 import math
 import time
 from dataclasses import asdict, dataclass, replace
@@ -31,6 +30,7 @@ import numpy as np
 
 from ..errors import GyroFmuError
 from ..model.resonator import EARTH_RATE, ResonatorParameters
+from ..outputs import save_figure, write_table_and_summary
 from .alarms import CalibrationRefusedError
 from .design import design
 
@@ -204,17 +204,21 @@ def run_lot(n: int, model: LotModel | None = None, scheduler: str | None = None,
 
 
 def write_lot(res: LotResult, out: Path, figures: bool = True) -> list[Path]:
-    """lot.csv (every resonator), summary.json, lot_histograms.png."""
+    """lot.csv (every resonator) and summary.json naming it, lot_histograms.png; each
+    whole under its name or not there (gyro_fmu.outputs)."""
     out.mkdir(parents=True, exist_ok=True)
     columns: list[str] = []
     for r in res.rows:
         columns += [c for c in r if c not in columns]
-    paths = [out / "lot.csv", out / "summary.json"]
-    with paths[0].open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=columns)
-        w.writeheader()
-        w.writerows({c: r.get(c, "") for c in columns} for r in res.rows)
-    paths[1].write_text(json.dumps(res.summary(), indent=2))
+    def write_csv(path: Path) -> int:
+        with path.open("w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=columns)
+            w.writeheader()
+            w.writerows({c: r.get(c, "") for c in columns} for r in res.rows)
+        return len(res.rows)
+
+    paths = list(write_table_and_summary(out, "lot.csv", write_csv, res.summary(),
+                                                 ("lot_histograms.png",)))
     if figures and res.rows:
         paths.append(histograms(res, out / "lot_histograms.png"))
     return paths
@@ -257,6 +261,6 @@ def histograms(res: LotResult, path: Path) -> Path:
     fig.suptitle(f"self-calibration lot: {s['n_good']}/{s['n']} good, {s['n_refused']} "
                  f"refused, {s['n_WRONG']} wrong, {s['n_failed']} failed")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path

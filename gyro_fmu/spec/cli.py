@@ -8,7 +8,6 @@ be trusted (the observer lost, the estimate never settled): no spec is printed t
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import time
@@ -16,6 +15,7 @@ from pathlib import Path
 
 from .. import options
 from ..model.parameters import PARAMETER_NAMES, PRESETS, ParameterError
+from ..outputs import save_figure, write_json
 from ..selfcal.cli import name_values
 
 
@@ -203,7 +203,7 @@ def spec_figure(s: dict, path: Path) -> Path:
     p.grid(True, which="both", alpha=0.3)
     fig.suptitle(f"gyro-fmu spec: {s['gyro']['preset']}, {s['rate_model']}", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -222,7 +222,7 @@ def _cmd_spec(args: argparse.Namespace) -> int:
     summary = measure_spec(cfg, progress)
     out.mkdir(parents=True, exist_ok=True)
     trace = summary.pop("_startup_trace", None)
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, allow_nan=True))
+    write_json(out / "summary.json", summary, allow_nan=True)
     print_spec(summary)
     written = [out / "summary.json"]
     if not args.no_figure:

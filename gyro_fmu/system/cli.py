@@ -96,7 +96,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 def _check_beside_summary(results: Path) -> None:
     """A results.csv of `gyro-fmu run` with a summary.json beside it must be the one that
     summary describes (a new run's results beside an old summary are refused)."""
-    from .outputs import check_pair
+    from ..outputs import check_pair
 
     summary_path = results.parent / "summary.json"
     try:
@@ -110,7 +110,7 @@ def _check_beside_summary(results: Path) -> None:
 
 def _cmd_report(args: argparse.Namespace) -> int:
     from ..model.parameters import GyroParameters
-    from .outputs import check_pair
+    from ..outputs import check_pair
     from .run import load_results, make_figures
 
     run_dir = Path(args.run_dir)
@@ -201,10 +201,12 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     print(f"estimates +- Cramer-Rao 1-sigma at the solution; {ident.nfev} evaluations, "
           f"{ident.message}")
     if args.json:
-        Path(args.json).write_text(json.dumps(
-            {"estimates": ident.estimates, "crb_sigma": ident.crb_sigma,
-             "noise_std": ident.noise_std, "noise_estimated": ident.noise_estimated,
-             "initial_state": ident.initial_state, "window_s": ident.window}, indent=2))
+        from ..outputs import write_json
+
+        write_json(Path(args.json), {
+            "estimates": ident.estimates, "crb_sigma": ident.crb_sigma,
+            "noise_std": ident.noise_std, "noise_estimated": ident.noise_estimated,
+            "initial_state": ident.initial_state, "window_s": ident.window})
         print(f"wrote {args.json}")
     return 0 if ident.success else 1
 
@@ -238,18 +240,7 @@ def _cmd_design_drive(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_file():  # /dev/full, a folder: not a figure's place
         raise ParameterError(f"--out {out} is not a file (a folder or a device): give the "
                              "path of a .png to write")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    from .outputs import atomic_write
-
-    def write(temp: Path) -> None:  # whole or not at all (0.2.0 "wrote /dev/full")
-        png = temp.with_suffix(".png")  # matplotlib takes the format from the suffix
-        try:
-            heat_map(d, png)
-            png.replace(temp)
-        finally:
-            png.unlink(missing_ok=True)
-
-    atomic_write(out, write)
+    heat_map(d, out)  # whole or not at all (0.2.0 reported "wrote /dev/full")
     print(f"wrote {out}")
     return 0
 

@@ -13,6 +13,7 @@ import numpy as np
 from ..cosim.master import CoSimulationResult
 from ..model.measurement import UNKNOWNS
 from ..model.parameters import PARAMETER_UNITS, GyroParameters
+from ..outputs import save_figure
 
 _LABELS = {
     "Omega_z": (r"$\Omega_z$", "rad/s"),
@@ -56,7 +57,7 @@ def fig3_states(result: CoSimulationResult, path: Path, window: float = 0.002) -
     axes[0, 1].set_title(f"last {window * 1e3:g} ms")
     fig.suptitle("Fig. 3A-3E: drive, gyroscope outputs and observer estimates")
     fig.subplots_adjust(**_MARGINS)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -99,6 +100,6 @@ def fig4_estimates(result: CoSimulationResult, truth: GyroParameters, path: Path
         ax.set_xlabel("time (ms)")
     fig.suptitle("Fig. 4A-4H: estimated unknowns against their truths")
     fig.subplots_adjust(**_MARGINS)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path

@@ -21,7 +21,7 @@ from ..estimation.metrics import ESTIMATED, summarize
 from ..fmu.build import FMU_NAMES, MODELS_DIR, ensure_current
 from ..model.parameters import GyroParameters, validate_for_plant
 from ..model.plant import MeasurementNoise
-from .outputs import atomic_write, results_record, run_lock
+from ..outputs import atomic_write, results_record, run_lock
 from .scenario import Scenario, absolute_noise, fmu_system, observer_tuning
 
 HAT = {"Omega_z": "Omega_hat"}
@@ -125,7 +125,8 @@ def _run_into(sc: Scenario, out_dir: Path, models_dir: Path, fmus: Mapping[str, 
         wall = time.perf_counter() - start
     messages = [str(w.message) for w in caught]
     # an old summary must never sit beside new results: it goes before they come
-    (out_dir / "summary.json").unlink(missing_ok=True)
+    for name in ("summary.json", *FIGURES):  # nor an old figure
+        (out_dir / name).unlink(missing_ok=True)
     results = write_or_rescue(result.write_csv, out_dir / "results.csv")
     summary = summary_of(sc, result, wall, messages, noise)
     summary["run_id"] = run_id
@@ -158,6 +159,10 @@ def write_or_rescue(write: Callable[[Path], None], path: Path) -> Path:
         ) from exc
 
 
+#: The figures `gyro-fmu run` draws from results.csv.
+FIGURES = ("fig3_states.png", "fig4_estimates.png")
+
+
 class RunOutputError(GyroFmuError):
     """An output file of a run could not be written (its content was rescued)."""
 
@@ -166,8 +171,8 @@ def make_figures(result: CoSimulationResult, truth: GyroParameters, out_dir: Pat
     from .figures import fig3_states, fig4_estimates
 
     return [
-        fig3_states(result, Path(out_dir) / "fig3_states.png"),
-        fig4_estimates(result, truth, Path(out_dir) / "fig4_estimates.png"),
+        fig3_states(result, Path(out_dir) / FIGURES[0]),
+        fig4_estimates(result, truth, Path(out_dir) / FIGURES[1]),
     ]
 
 

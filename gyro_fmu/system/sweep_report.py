@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..estimation.metrics import ESTIMATED
+from ..outputs import atomic_write, save_figure, write_table_and_summary
 
 if TYPE_CHECKING:  # annotations only: sweep imports this module
     from .sweep import SweepSpec
@@ -190,29 +191,34 @@ def spec_dict(spec: SweepSpec) -> dict:
 
 
 def write_outputs(res: SweepResult, out_dir: Path, figures: bool = True) -> list[Path]:
-    """sweep.csv (every run), sweep.parquet (if pyarrow is installed), summary.json, PNGs."""
+    """sweep.csv (every run) and summary.json naming it (gyro_fmu.outputs:
+    write_table_and_summary), sweep.parquet (if pyarrow is installed), PNGs; each file
+    whole under its name or not there."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     columns: list[str] = []
     for r in res.rows:
         columns += [c for c in r if c not in columns]
-    paths = [out / "sweep.csv"]
-    with paths[0].open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=columns)
-        w.writeheader()
-        for r in res.rows:
-            w.writerow({c: "" if r.get(c) is None else r.get(c) for c in columns})
+    def write_csv(path: Path) -> int:
+        with path.open("w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=columns)
+            w.writeheader()
+            for r in res.rows:
+                w.writerow({c: "" if r.get(c) is None else r.get(c) for c in columns})
+        return len(res.rows)
+
+    (out / "sweep.parquet").unlink(missing_ok=True)  # an old run's, beside the new csv
+    paths = list(write_table_and_summary(out, "sweep.csv", write_csv, res.summary(),
+                                                 ("sweep_histograms.png",)))
     try:
         import pyarrow as pa
         import pyarrow.parquet as pq
 
         table = pa.Table.from_pylist([{c: r.get(c) for c in columns} for r in res.rows])
-        pq.write_table(table, out / "sweep.parquet")
-        paths.append(out / "sweep.parquet")
+        paths.append(atomic_write(out / "sweep.parquet",
+                                  lambda p: pq.write_table(table, str(p))))
     except ImportError:
         pass
-    (out / "summary.json").write_text(json.dumps(res.summary(), indent=2))
-    paths.append(out / "summary.json")
     if figures and res.rows:  # nothing to draw when interrupted before the first gyro
         paths.append(histograms(res, out / "sweep_histograms.png"))
     return paths
@@ -273,6 +279,6 @@ def histograms(res: SweepResult, path: Path) -> Path:
     fig.suptitle(f"Monte Carlo over fabrication tolerances: {len(res.rows)} gyros, "
                  f"{res.spec.tolerances.preset}, {res.spec.tolerances.distribution}")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return Path(path)

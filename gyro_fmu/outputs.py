@@ -17,10 +17,11 @@ import hashlib
 import json
 import os
 import tempfile
+import uuid
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
-from ..errors import GyroFmuError
+from .errors import GyroFmuError
 
 LOCK = ".gyro-fmu.lock"
 
@@ -117,5 +118,34 @@ def check_pair(summary: dict, results: Path) -> None:
             "runs, or one was changed; rerun the scenario")
 
 
-def write_json(path: Path, data: dict) -> Path:
-    return atomic_write(path, lambda p: p.write_text(json.dumps(data, indent=2)))
+def write_json(path: Path, data: dict, **dumps: object) -> Path:
+    """data as indented JSON (json.dumps keywords: default=, allow_nan=), whole or not at
+    all."""
+    text = json.dumps(data, indent=2, **dumps)  # type: ignore[arg-type]
+    return atomic_write(path, lambda p: p.write_text(text))
+
+
+def write_table_and_summary(folder: Path, table: str, write_table: Callable[[Path], int],
+                            summary: dict, derived: tuple[str, ...] = ()) -> tuple[Path, Path]:
+    """Replace folder/table and folder/summary.json as a pair: the old summary goes first
+    (no old summary beside a new table, even after a kill between them), the table is
+    written whole (write_table(path) returns its row count), then the summary, naming
+    it (results_record) under summary["run_id"] (made if absent). `derived` (figures
+    drawn from the table afterwards) are removed first too: an old run's figure never
+    sits beside a new table."""
+    folder = Path(folder)
+    run_id = summary.setdefault("run_id", uuid.uuid4().hex)
+    for name in ("summary.json", *derived):
+        (folder / name).unlink(missing_ok=True)
+    rows: list[int] = []
+    path = atomic_write(folder / table, lambda p: rows.append(write_table(p)))
+    summary["results"] = results_record(path, run_id, rows[0])
+    return path, write_json(folder / "summary.json", summary)
+
+
+def save_figure(fig: object, path: Path, **savefig: object) -> Path:
+    """fig.savefig whole under path or not at all (the format from path's suffix)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fmt = path.suffix.lstrip(".") or "png"
+    return atomic_write(path, lambda p: fig.savefig(p, format=fmt, **savefig))  # type: ignore[attr-defined]
