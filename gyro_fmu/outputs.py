@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import json
 import os
@@ -93,6 +94,39 @@ def run_lock(folder: Path) -> Iterator[None]:
         yield
     finally:
         lock.unlink(missing_ok=True)
+
+
+@contextlib.contextmanager
+def out_folder(folder: Path) -> Iterator[Path]:
+    """Make folder (and its parents) and hold its lock for the block.
+
+    A block that fails leaves no empty folder it made behind; a live run's folder is
+    refused with RunFolderBusyError (`run_lock`).
+    """
+    folder = Path(folder)
+    created = [d for d in (folder, *folder.parents) if not d.exists()]
+    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        with run_lock(folder):
+            yield folder
+    except BaseException:
+        for made in created:  # nothing to keep: no empty folders left behind
+            if made.is_dir() and any(made.iterdir()):
+                break
+            with contextlib.suppress(OSError):
+                made.rmdir()
+        raise
+
+
+def holds_out_folder(default: str) -> Callable[[Callable[..., int]], Callable[..., int]]:
+    """Decorate a CLI command so that `args.out` (or default) is made and locked for it."""
+    def wrap(command: Callable[..., int]) -> Callable[..., int]:
+        @functools.wraps(command)
+        def locked(args) -> int:
+            with out_folder(Path(args.out or default)):
+                return command(args)
+        return locked
+    return wrap
 
 
 def results_record(results: Path, run_id: str, rows: int) -> dict:

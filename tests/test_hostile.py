@@ -417,3 +417,29 @@ def test_the_master_does_not_unpack_an_archive_that_climbs_out(tmp_path):
     with pytest.raises(CoSimulationError, match="would be unpacked outside the FMU's folder"):
         run_cosimulation([Component("rate", fmu)], [], 1e-4, 5e-6)
     assert not (tmp_path.parent / "escaped.txt").exists()
+
+
+@pytest.mark.parametrize("command", [
+    ["sweep", "-n", "2"], ["selfcal"], ["ratetable"], ["selfcal-lot", "-n", "2"], ["spec"]])
+def test_every_folder_writing_command_refuses_a_folder_a_live_run_holds(tmp_path, capsys,
+                                                                        command):
+    """sweep, the self-calibration commands and spec take the same lock as run: a folder
+    another live process writes into is refused before any work, and left as it was."""
+    import subprocess
+    import sys
+
+    from gyro_fmu.outputs import LOCK
+
+    out = tmp_path / "busy"
+    out.mkdir()
+    (out / "summary.json").write_text("{}")
+    holder = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        (out / LOCK).write_text(str(holder.pid))
+        assert main([*command, "--out", str(out)]) == 2
+        assert f"being written by another gyro-fmu run (process {holder.pid})" in \
+            capsys.readouterr().err
+        assert sorted(p.name for p in out.iterdir()) == sorted([LOCK, "summary.json"])
+    finally:
+        holder.kill()
+        holder.wait()

@@ -16,7 +16,7 @@ from .. import options
 from ..model.loops import LoopsError
 from ..model.parameters import ParameterError
 from ..model.resonator import EARTH_RATE, ResonatorError, ResonatorParameters, check_resonator
-from ..outputs import write_json
+from ..outputs import holds_out_folder, write_json
 
 if TYPE_CHECKING:  # the parser is built without the calibration's stack (scipy.optimize)
     from .alarms import CalibrationRefusedError
@@ -124,6 +124,7 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", help="output folder")
 
 
+@holds_out_folder("runs/selfcal")
 def _cmd_selfcal(args: argparse.Namespace) -> int:
     from .alarms import CalibrationRefusedError
     from .phasors import PhasorError
@@ -184,6 +185,7 @@ def _write_refusal(args: argparse.Namespace, exc: CalibrationRefusedError) -> No
         print(f"gyro-fmu: also: {problem}", file=sys.stderr)
 
 
+@holds_out_folder("runs/ratetable")
 def _cmd_ratetable(args: argparse.Namespace) -> int:
     from .phasors import PhasorError
     from .ratetable import DEFAULT_RATES, RateTableError, rate_table
@@ -215,6 +217,7 @@ def _cmd_ratetable(args: argparse.Namespace) -> int:
     return 0
 
 
+@holds_out_folder("runs/selfcal_lot")
 def _cmd_lot(args: argparse.Namespace) -> int:
     from .lot import LotModel, run_lot, write_lot
 

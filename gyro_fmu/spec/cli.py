@@ -15,7 +15,7 @@ from pathlib import Path
 
 from .. import options
 from ..model.parameters import PARAMETER_NAMES, PRESETS, ParameterError
-from ..outputs import save_figure, write_json
+from ..outputs import holds_out_folder, save_figure, write_json
 from ..selfcal.cli import name_values
 
 
@@ -208,6 +208,7 @@ def spec_figure(s: dict, path: Path) -> Path:
     return path
 
 
+@holds_out_folder("runs/spec")
 def _cmd_spec(args: argparse.Namespace) -> int:
     from .measure import measure_spec
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import json
 import tempfile
 import time
@@ -21,7 +20,7 @@ from ..estimation.metrics import ESTIMATED, summarize
 from ..fmu.build import FMU_NAMES, MODELS_DIR, ensure_current
 from ..model.parameters import GyroParameters, validate_for_plant
 from ..model.plant import MeasurementNoise
-from ..outputs import atomic_write, results_record, run_lock
+from ..outputs import atomic_write, out_folder, results_record
 from .scenario import Scenario, absolute_noise, fmu_system, observer_tuning
 
 HAT = {"Omega_z": "Omega_hat"}
@@ -91,19 +90,8 @@ def run_and_report(
     with `"interrupted"` in summary.json, and is raised again; a results file that
     cannot be written is saved to a fresh temporary folder (`write_or_rescue`).
     """
-    out_dir = Path(out_dir)
-    created = [d for d in (out_dir, *out_dir.parents) if not d.exists()]
-    out_dir.mkdir(parents=True, exist_ok=True)
-    try:
-        with run_lock(out_dir):
-            return _run_into(sc, out_dir, models_dir, fmus, figures)
-    except BaseException:
-        for folder in created:  # nothing to keep: no empty folders left behind
-            if folder.is_dir() and any(folder.iterdir()):
-                break
-            with contextlib.suppress(OSError):
-                folder.rmdir()
-        raise
+    with out_folder(Path(out_dir)) as folder:
+        return _run_into(sc, folder, models_dir, fmus, figures)
 
 
 def _run_into(sc: Scenario, out_dir: Path, models_dir: Path, fmus: Mapping[str, Path] | None,

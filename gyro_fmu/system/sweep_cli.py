@@ -10,6 +10,7 @@ from pathlib import Path
 from .. import options
 from ..fmu.build import MODELS_DIR
 from ..model.parameters import ParameterError
+from ..outputs import holds_out_folder
 from .cli import _assignments, _scenario_from
 
 
@@ -49,6 +50,7 @@ def _print_bound(b: dict | None) -> None:
 # --- in main(), after the `observability` subparser: ---------------------------------------
 
 
+@holds_out_folder("runs/sweep")
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from ..model.parameters import PARAMETER_NAMES
     from ..model.rate import RateKind
