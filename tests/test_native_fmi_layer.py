@@ -92,6 +92,36 @@ def test_a_bad_parameter_fails_initialization_with_the_plants_reason(version: in
 
 
 @pytest.mark.parametrize("version", VERSIONS)
+def test_a_rate_no_gyro_can_sense_fails_the_fmus_with_the_limit(version: int) -> None:
+    """|Omega_z| at or above sqrt(min(kxx, kyy)): GyroPlant's step (an input) and
+    GyroObserver's initialization (its guess) fail naming the value and the limit, in the
+    words of GyroParameters.rate_problem (one check in the core, gyro_rate_problem)."""
+    from gyro_fmu.model.parameters import PRESETS
+
+    limit = PRESETS["park-horowitz"].rate_limit
+    plant = NativeRun(prebuilt_fmu("GyroPlant", version))
+    plant.initialize(Omega_z=0.99 * limit)
+    plant.fmu.doStep(0.0, 5e-6)  # just below: a rate it can sense
+    plant.set(Omega_z=-limit)
+    with pytest.raises(FMICallException):
+        plant.fmu.doStep(5e-6, 5e-6)
+    expected = PRESETS["park-horowitz"].rate_problem("Omega_z", -limit)
+    assert expected and expected in _errors(plant)[-1]
+    assert "below the slowest axis's angular frequency sqrt(min(kxx, kyy)) = 1.885e+04" \
+        in expected
+    plant.close()
+    observer = NativeRun(prebuilt_fmu("GyroObserver", version))
+    with pytest.raises(FMICallException):
+        observer.set(Omega_z_0=math.inf)  # not finite: refused by the setter
+    observer.set(Omega_z_0=1e5)
+    with pytest.raises(FMICallException):
+        observer.initialize()
+    assert "Omega_z_0=100000.0 rad/s is not a rate this gyro can sense" in \
+        _errors(observer)[-1]
+    observer.close()
+
+
+@pytest.mark.parametrize("version", VERSIONS)
 def test_a_growing_mode_is_a_warning_with_its_rate(version: int) -> None:
     run = NativeRun(prebuilt_fmu("GyroPlant", version))
     run.set(kxx=(2 * math.pi * 3000) ** 2, kyy=(2 * math.pi * 900) ** 2, kxy=7.1e7, dxx=10,

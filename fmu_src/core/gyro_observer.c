@@ -869,6 +869,10 @@ int gyro_observer_init(GyroObserver *o, const GyroParams *guess, double Omega_z_
                  gyro_real_text(Omega_z_0, num));
         return 1;
     }
+    if (gyro_rate_problem(guess, "Omega_z_0", Omega_z_0, problems, sizeof problems)) {
+        snprintf(msg, n, "%s (the guessed kxx and kyy)", problems);
+        return 1;
+    }
     if (gyro_observer_tuning_problems(tun, msg, n)) return 1;
     memset(o, 0, sizeof *o);
     o->tuning = *tun;

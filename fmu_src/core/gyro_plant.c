@@ -213,6 +213,24 @@ double gyro_max_growth_rate(const GyroParams *p, double Omega_z) {
     return growth;
 }
 
+double gyro_rate_limit(const GyroParams *p) {
+    const double k = p->kxx < p->kyy ? p->kxx : p->kyy;
+    return k > 0.0 ? sqrt(k) : 0.0;
+}
+
+int gyro_rate_problem(const GyroParams *p, const char *name, double Omega_z, char *msg,
+                      size_t n) {
+    const double limit = gyro_rate_limit(p);
+    if (n) msg[0] = '\0';
+    if (isfinite(Omega_z) && fabs(Omega_z) < limit) return 0;
+    char value[GYRO_REAL_TEXT];
+    snprintf(msg, n, "%s=%s rad/s is not a rate this gyro can sense: give |%s| below the "
+             "slowest axis's angular frequency sqrt(min(kxx, kyy)) = %.4g rad/s (2 pi x "
+             "%.4g Hz)", name, gyro_real_text(Omega_z, value), name, limit,
+             limit / 6.283185307179586);
+    return 1;
+}
+
 int gyro_params_warning(const GyroParams *p, char *msg, size_t n) {
     const double growth = gyro_max_growth_rate(p, 0.0);
     if (n) msg[0] = '\0';

@@ -70,6 +70,15 @@ int gyro_params_problems(const GyroParams *p, char *msg, size_t n);
  * det(s^2 I + s (D + G) + K) = 0 by Durand-Kerner. */
 double gyro_max_growth_rate(const GyroParams *p, double Omega_z);
 
+/* sqrt(min(kxx, kyy)), rad/s: no vibratory gyroscope senses a rate that fast (the
+ * Coriolis terms 2 Omega_z of eqs. 3-4 would outweigh the modes they couple). */
+double gyro_rate_limit(const GyroParams *p);
+
+/* Why Omega_z (rad/s, called `name`) cannot be a rate of p: not finite, or |Omega_z| at
+ * or above gyro_rate_limit. Returns 0 ("" in msg) when it can. */
+int gyro_rate_problem(const GyroParams *p, const char *name, double Omega_z, char *msg,
+                      size_t n);
+
 /* A warning for a growing mode ("" when none); returns 1 when there is one. */
 int gyro_params_warning(const GyroParams *p, char *msg, size_t n);
 

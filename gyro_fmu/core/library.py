@@ -70,6 +70,8 @@ CORE_FUNCTIONS = {
     "gyro_held_input_maps": (None, [POINTER(Params), c_double, c_double, _D, _D]),
     "gyro_params_problems": (c_int, [POINTER(Params), c_char_p, c_size_t]),
     "gyro_params_warning": (c_int, [POINTER(Params), c_char_p, c_size_t]),
+    "gyro_rate_limit": (c_double, [POINTER(Params)]),
+    "gyro_rate_problem": (c_int, [POINTER(Params), c_char_p, c_double, c_char_p, c_size_t]),
     "gyro_max_growth_rate": (c_double, [POINTER(Params), c_double]),
     "gyro_plant_size": (c_size_t, []),
     "gyro_plant_init": (None, [ctypes.c_void_p, POINTER(Params), POINTER(PickoffNoise),

@@ -100,17 +100,17 @@ class GyroParameters:
     def rate_limit(self) -> float:
         """The slowest axis's angular frequency sqrt(min(kxx, kyy)), rad/s: no vibratory
         gyroscope senses a rate that fast (the Coriolis terms 2 Omega_z of eqs. 3-4 would
-        outweigh the modes they couple)."""
-        return math.sqrt(max(min(self.kxx, self.kyy), 0.0))
+        outweigh the modes they couple). The core's gyro_rate_limit."""
+        from ..core.library import core
+
+        return float(core().gyro_rate_limit(_c_params(self)))
 
     def rate_problem(self, name: str, value: float) -> str | None:
-        """Why `value` (rad/s) cannot be a rate of this gyro, None if it can."""
-        limit = self.rate_limit
-        if math.isfinite(value) and abs(value) < limit:
-            return None
-        return (f"{name}={value:g} rad/s is not a rate this gyro can sense: give |{name}| "
-                f"below the slowest axis's angular frequency sqrt(min(kxx, kyy)) = "
-                f"{limit:.4g} rad/s (2 pi x {limit / _TWO_PI:.4g} Hz)")
+        """Why `value` (rad/s) cannot be a rate of this gyro, None if it can: the core's
+        gyro_rate_problem, with which GyroPlant.fmu and GyroObserver.fmu refuse it too."""
+        from ..core.library import core_text
+
+        return core_text("gyro_rate_problem", _c_params(self), name.encode(), float(value))
 
 
 def _as_finite_float(name: str, value: object) -> float:

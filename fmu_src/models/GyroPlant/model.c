@@ -33,8 +33,11 @@ static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) 
 }
 
 static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) {
-    (void)t, (void)msg, (void)n;
+    (void)t;
     ModelData *d = data;
+    const Variables *v = &d->v;
+    const GyroParams p = {v->kxx, v->kyy, v->kxy, v->dxx, v->dyy, v->dxy, v->m};
+    if (gyro_rate_problem(&p, "Omega_z", v->Omega_z, msg, n)) return GYRO_HOOK_ERROR;
     gyro_plant_step(&d->plant, d->v.ux, d->v.uy, d->v.Omega_z, h);
     publish(d);
     return GYRO_HOOK_OK;
