@@ -107,9 +107,12 @@ def assert_state_round_trip(fmu: Path, params: dict, outputs: list[str], inputs,
 
 def assert_bad_input_refused(fmu: Path, params: dict, action: tuple, message: str,
                              h: float) -> None:
-    """One bad value: the FMU logs `message` (traceback in logDebug), the step returns
-    fmi2Discard without advancing, a bad input is recoverable, and the instance can
-    still be terminated and freed.
+    """One bad value: the FMU logs `message`, the step does not advance, a bad input is
+    recoverable, and the instance can still be terminated and freed. A refused input or
+    value discards the next step (fmi2Discard, traceback in logDebug); a fixed parameter set
+    after initialization, a step size that is not > 0, or a step of an instance whose
+    initialization failed, is an illegal call refused at once (fmi2Error), as the native
+    FMUs do.
 
     action: ("input" | "after_init", variable, value): set it after initialization;
     ("step", step size, None): a good step, then one of that size;
@@ -122,15 +125,22 @@ def assert_bad_input_refused(fmu: Path, params: dict, action: tuple, message: st
     if kind == "step":
         inst.slave.doStep(0.0, h)  # a good step first
         inst.t = h
-        assert inst.step(what) == 2
-    else:
-        if kind in ("input", "after_init"):
+        assert inst.step(what) == 3
+    elif kind == "init":
+        assert inst.step(h) == 3  # the instance failed: refused, in error mode
+    elif kind == "after_init":  # a call the standard forbids: fmi2Error, nothing changed
+        try:
             inst.set({what: value})
+            raise AssertionError(f"setting {what} after initialization was accepted")
+        except FMICallException as exc:
+            assert exc.status == 3
+    else:
+        inst.set({what: value})
         assert inst.step(h) == 2  # fmi2Discard, the state kept
+        assert "Traceback" in inst.category(DEBUG_CATEGORY)
     text = inst.messages()
     assert message in text, text
-    assert "Traceback" in inst.category(DEBUG_CATEGORY)
-    if kind in ("input", "after_init"):
+    if kind == "input":
         assert np.array_equal(np.array(before), np.array(inst.get(outputs)))  # not advanced
         assert inst.step(h) == 0  # recoverable: the next step goes on
     inst.close()  # fmi2Terminate and fmi2FreeInstance after the error

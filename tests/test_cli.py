@@ -41,7 +41,7 @@ def test_run_writes_results_summary_and_figures(models_dir, tmp_path, capsys):
         (["run", "--step", "-1"], "argument --step: -1 must be > 0"),
         (["run", "--noise", "-0.1"], "argument --noise: -0.1 must be >= 0"),
         (["run", "--noise", "1e300"], "noise=1e+300 must lie in [0, 1e+06]"),
-        (["run", "--Omega-z-0", "1e6"], "Omega_z_0=1e+06 rad/s is not a rate this gyro"),
+        (["run", "--Omega-z-0", "1e6"], "Omega_z_0=1000000.0 rad/s is not a rate this gyro"),
         (["run", "--initial", "mass=1"], "unknown initial guess"),
         (["report", "/nonexistent"], "summary.json not found"),
     ],

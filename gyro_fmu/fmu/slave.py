@@ -88,7 +88,8 @@ class GyroSlave(Fmi2Slave):
             vr: (name, -_FMAX if spec.min is None else spec.min,
                  _FMAX if spec.max is None else spec.max)
             for vr, name in self._real_names.items()
-            if not (spec := self._spec[name]).is_parameter
+            if self.vars[vr].causality == Fmi2Causality.input
+            and not (spec := self._spec[name]).is_parameter
         }
         self._getters: dict[tuple[int, ...], Any] = {}
         outs = [v.name for v in self.VARIABLES if v.causality == "output" and not v.integer]
@@ -243,7 +244,7 @@ class GyroSlave(Fmi2Slave):
         getter = self._getters.get(key)
         if getter is None:
             if not all(vr in self._real_names for vr in key):
-                return super().get_real(vrs)  # its TypeError for a non-Real variable
+                return self._refused_get(key, "Real", math.nan)
             names = [self._real_names[vr] for vr in key]
             getter = itemgetter(*names) if len(names) > 1 else (lambda d, n=names: [d[n[0]]])
             self._getters[key] = getter
@@ -263,16 +264,38 @@ class GyroSlave(Fmi2Slave):
             else:
                 self._set([vr], [value], float)
 
+    def get_integer(self, vrs: list[int]) -> list[int]:
+        if not all(isinstance(self.vars.get(vr), Integer) for vr in vrs):
+            return self._refused_get(tuple(vrs), "Integer", 0)
+        return super().get_integer(vrs)
+
+    def _refused_get(self, vrs: tuple[int, ...], kind: str, fill: float) -> list:
+        """A get of a reference that is not a variable of this kind: fmi2Error with the
+        reason (pythonfmu 0.7.0 let the exception through and crashed the host)."""
+        bad = next(vr for vr in vrs if not (
+            vr in self._real_names if kind == "Real" else isinstance(self.vars.get(vr), Integer)))
+        what = (f"is {self.vars[bad].name}, not a {kind} variable" if bad in self.vars
+                else "is no variable of this FMU")
+        self.log(f"{self.modelName}: value reference {bad} {what}: refused", Fmi2Status.error)
+        self._sync_host(ERROR)
+        return [fill] * len(vrs)
+
     def set_integer(self, vrs: list[int], values: list[int]) -> None:
         self._set(vrs, values, int)
 
     def _set(self, vrs: list[int], values: list, cast: type) -> None:
         for vr, value in zip(vrs, values, strict=False):
             try:
-                var = self.vars[vr]
+                var = self.vars.get(vr)
+                if var is None:
+                    raise IllegalCallError(f"value reference {vr} is no variable of this FMU "
+                                     f"(refused {value!r})")
                 spec = self._spec[var.name]
+                if var.causality == Fmi2Causality.output:
+                    raise IllegalCallError(f"{spec.name} is an output: the FMI standard forbids "
+                                     f"setting it (refused {value!r})")
                 if spec.is_parameter and self.initialized:
-                    raise ValueError(
+                    raise IllegalCallError(
                         f"{spec.name} is a fixed parameter and cannot change after "
                         f"initialization (kept {getattr(self, spec.name)!r}, refused {value!r}): "
                         "set it before fmi2ExitInitializationMode, or instantiate anew"
@@ -283,6 +306,12 @@ class GyroSlave(Fmi2Slave):
                 setattr(self, spec.name, cast(value))
             except Exception as exc:
                 message = f"{self.modelName}: {exc}"
+                if isinstance(exc, IllegalCallError):  # fmi2Error now, nothing changed
+                    self.log(message, Fmi2Status.error)
+                    self._sync_host(ERROR)
+                    continue
+                # a refused value: the next step is discarded (a parameter: the instance
+                # fails), so a host that retries goes on with the kept value
                 if spec_is_parameter(self, vr) and not self.initialized:
                     self.failed = f"refused parameter value: {exc}"
                     self._outputs_not_a_number()
@@ -377,6 +406,12 @@ class GyroSlave(Fmi2Slave):
                 unknown.set("dependencies", "")
                 SubElement(initial, "Unknown", index=unknown.get("index"))
         return root
+
+
+class IllegalCallError(ValueError):
+    """A set the FMI standard forbids whatever the value (an output, an unknown value
+    reference, a fixed parameter after initialization): refused with fmi2Error at once,
+    through the loader, and nothing changes."""
 
 
 def spec_is_parameter(slave: GyroSlave, vr: int) -> bool:

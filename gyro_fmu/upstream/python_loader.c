@@ -474,6 +474,7 @@ static void say(fmi2CallbackLogger logger, fmi2ComponentEnvironment env, fmi2Str
 /* Instances: the real component plus what the slave reported              */
 /* ------------------------------------------------------------------------ */
 struct instance {
+    struct instance *next;           /* the live instances, a list (live_instance) */
     fmi2Component real;
     fmi2CallbackLogger logger;
     fmi2ComponentEnvironment env;
@@ -481,8 +482,48 @@ struct instance {
     int call_status;                 /* least status of the running call (slave's report) */
     int failed;                      /* the slave can no longer step */
     char why[2048];                  /* the slave's reason, for the fmi2Terminated answer */
+    int mode;                        /* M_*: where the FMI 2.0 state machine stands */
+    struct saved *states;            /* the FMU states this instance gave and not yet freed */
 };
+
+/* pythonfmu 0.7.0 has no FMI state machine: a step before initialization, a free of a
+ * freed FMU state or a second fmi2FreeInstance crashed the host. The loader keeps one per
+ * instance, in the native layer's words (fmu_src/fmi/instance.c): a call not allowed in
+ * the current mode, a step size that is not finite and > 0, an FMU state this instance
+ * did not give (or freed already) are refused with fmi2Error and a logged reason, and
+ * change nothing. Value references and causalities are the slave's to check. */
+enum { M_INST = 1, M_INIT = 2, M_STEP = 4, M_TERM = 8, M_ERROR = 16, M_ANY = 31 };
+
+struct saved {
+    struct saved *next;
+    fmi2FMUstate state;
+    int mode;                        /* the mode a fmi2SetFMUstate of it returns to */
+};
+
+static const char *mode_name(int mode)
+{
+    switch (mode) {
+    case M_INST: return "instantiated mode";
+    case M_INIT: return "initialization mode";
+    case M_STEP: return "step mode";
+    case M_TERM: return "terminated mode";
+    default: return "error mode";
+    }
+}
 static __thread struct instance *current;   /* the instance whose call is running here */
+static struct instance *live;                /* every instance not yet freed (lock()) */
+
+/* Whether c is a live instance of this loader: a host may free an instance twice, or call
+ * a freed one (pythonfmu 0.7.0 aborts the process on a second fmi2FreeInstance). */
+static int live_instance(const void *c)
+{
+    const struct instance *i;
+    int found = 0;
+    lock();
+    for (i = live; i && !found; i = i->next) found = i == c;
+    unlock();
+    return found;
+}
 
 /* Called by the slave (ctypes) during an FMI call on `current`. */
 FMI2_Export void pythonfmu_shim_report(int call_status, int failed, const char *why)
@@ -492,6 +533,46 @@ FMI2_Export void pythonfmu_shim_report(int call_status, int failed, const char *
     if (call_status > i->call_status) i->call_status = call_status;
     i->failed = failed;
     copy(i->why, why ? why : "", sizeof i->why);
+}
+
+/* Whether call may run on i now; if not, says why through the host's logger. */
+static int allowed(struct instance *i, const char *call, int modes)
+{
+    if (i->mode & modes) return 1;
+    if (i->mode == M_ERROR)
+        say(i->logger, i->env, i->name, fmi2Error, "logStatusError", "%s refused: the "
+            "instance failed (%s); reset it, restore an FMU state saved before, or "
+            "instantiate anew", call, i->why[0] ? i->why : "?");
+    else
+        say(i->logger, i->env, i->name, fmi2Error, "logStatusError",
+            "%s is not allowed in %s (FMI 2.0 state machine)", call, mode_name(i->mode));
+    return 0;
+}
+
+/* The saved record of state s of i, NULL when i did not give it (or it was freed). */
+static struct saved **saved_of(struct instance *i, fmi2FMUstate s)
+{
+    struct saved **p;
+    for (p = &i->states; *p; p = &(*p)->next)
+        if ((*p)->state == s) return p;
+    return NULL;
+}
+
+static fmi2Status not_a_state(struct instance *i, const char *call)
+{
+    say(i->logger, i->env, i->name, fmi2Error, "logStatusError", "%s: the FMU state given "
+        "is not a live FMU state of this instance (freed already, or never given by "
+        "fmi2GetFMUstate)", call);
+    return fmi2Error;
+}
+
+/* After a call on i: a slave that can no longer step puts an initialized i in error mode
+ * (a refused parameter before that fails the initialization, which goes on to say so). */
+static fmi2Status after(struct instance *i, fmi2Status status, int next_mode)
+{
+    if (status <= fmi2Warning && next_mode) i->mode = next_mode;
+    if (i->failed && (i->mode & (M_STEP | M_TERM))) i->mode = M_ERROR;
+    return status;
 }
 
 /* pythonfmu 0.7.0 turns the resource URI into a path by cutting "file://" and decodes
@@ -561,82 +642,242 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuT
         free(i);
         return NULL;
     }
+    i->mode = M_INST;
+    lock();
+    i->next = live;
+    live = i;
+    unlock();
     return (fmi2Component)i;
 }
 
 FMI2_Export void fmi2FreeInstance(fmi2Component c)
 {
-    struct instance *i = (struct instance *)c, *outer;
+    struct instance *i = (struct instance *)c, *outer, **p;
+    int found = 0;
     if (!loaded || !i) return;
+    lock();
+    for (p = &live; *p; p = &(*p)->next)
+        if (*p == i) {
+            *p = i->next;
+            found = 1;
+            break;
+        }
+    unlock();
+    if (!found) return; /* freed already (or never ours): ignored, as the native layer does */
     outer = current;
     current = i;
+    while (i->states) {
+        struct saved *s = i->states;
+        i->states = s->next;
+        real.fmi2FreeFMUstate(i->real, &s->state);
+        free(s);
+    }
     real.fmi2FreeInstance(i->real);
     current = outer;
     free(i);
 }
 
-/* Functions on an instance: only reachable after a successful fmi2Instantiate. The
+/* Functions on an instance: only reachable after a successful fmi2Instantiate, in the
+ * modes given (else refused, `allowed`); next: the mode after success (0: unchanged). The
  * status returned is the real one or the higher one the slave reported during it. */
-#define FORWARD(name, params, args)                                    \
+#define FORWARD(name, modes, next, params, args)                       \
     FMI2_Export fmi2Status name params                                 \
     {                                                                  \
         struct instance *i = (struct instance *)c, *outer;             \
         fmi2Status status_;                                            \
-        if (!loaded || !i) return fmi2Error;                           \
+        if (!loaded || !i || !live_instance(i)) return fmi2Error;       \
+        if (!allowed(i, #name, modes)) return fmi2Error;               \
         outer = current;                                               \
         current = i;                                                   \
         i->call_status = fmi2OK;                                       \
         status_ = real.name args;                                      \
         current = outer;                                               \
-        return status_ >= i->call_status ? status_ : (fmi2Status)i->call_status; \
+        return after(i, status_ >= i->call_status ? status_ : (fmi2Status)i->call_status, \
+                     next);                                            \
     }
 #define RC (i->real)
+#define GETTABLE (M_INIT | M_STEP | M_TERM | M_ERROR)
+#define SETTABLE (M_INST | M_INIT | M_STEP)
 
 typedef const fmi2ValueReference cvr_t;
-FORWARD(fmi2SetDebugLogging, (fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cat[]),
-        (RC, on, n, cat))
-FORWARD(fmi2SetupExperiment, (fmi2Component c, fmi2Boolean td, fmi2Real tol, fmi2Real t0,
-                              fmi2Boolean sd, fmi2Real t1), (RC, td, tol, t0, sd, t1))
-FORWARD(fmi2EnterInitializationMode, (fmi2Component c), (RC))
-FORWARD(fmi2ExitInitializationMode, (fmi2Component c), (RC))
-FORWARD(fmi2Terminate, (fmi2Component c), (RC))
-FORWARD(fmi2Reset, (fmi2Component c), (RC))
-FORWARD(fmi2GetReal, (fmi2Component c, cvr_t vr[], size_t n, fmi2Real v[]), (RC, vr, n, v))
-FORWARD(fmi2GetInteger, (fmi2Component c, cvr_t vr[], size_t n, fmi2Integer v[]), (RC, vr, n, v))
-FORWARD(fmi2GetBoolean, (fmi2Component c, cvr_t vr[], size_t n, fmi2Boolean v[]), (RC, vr, n, v))
-FORWARD(fmi2GetString, (fmi2Component c, cvr_t vr[], size_t n, fmi2String v[]), (RC, vr, n, v))
-FORWARD(fmi2SetReal, (fmi2Component c, cvr_t vr[], size_t n, const fmi2Real v[]), (RC, vr, n, v))
-FORWARD(fmi2SetInteger, (fmi2Component c, cvr_t vr[], size_t n, const fmi2Integer v[]),
+FORWARD(fmi2SetDebugLogging, M_ANY, 0,
+        (fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cat[]), (RC, on, n, cat))
+FORWARD(fmi2SetupExperiment, M_INST, 0, (fmi2Component c, fmi2Boolean td, fmi2Real tol,
+                                         fmi2Real t0, fmi2Boolean sd, fmi2Real t1),
+        (RC, td, tol, t0, sd, t1))
+FORWARD(fmi2EnterInitializationMode, M_INST, M_INIT, (fmi2Component c), (RC))
+FORWARD(fmi2ExitInitializationMode, M_INIT, M_STEP, (fmi2Component c), (RC))
+FORWARD(fmi2Terminate, M_STEP | M_ERROR, M_TERM, (fmi2Component c), (RC))
+FORWARD(fmi2GetReal, GETTABLE, 0, (fmi2Component c, cvr_t vr[], size_t n, fmi2Real v[]),
         (RC, vr, n, v))
-FORWARD(fmi2SetBoolean, (fmi2Component c, cvr_t vr[], size_t n, const fmi2Boolean v[]),
+FORWARD(fmi2GetInteger, GETTABLE, 0, (fmi2Component c, cvr_t vr[], size_t n, fmi2Integer v[]),
         (RC, vr, n, v))
-FORWARD(fmi2SetString, (fmi2Component c, cvr_t vr[], size_t n, const fmi2String v[]),
+FORWARD(fmi2GetBoolean, GETTABLE, 0, (fmi2Component c, cvr_t vr[], size_t n, fmi2Boolean v[]),
         (RC, vr, n, v))
-FORWARD(fmi2GetFMUstate, (fmi2Component c, fmi2FMUstate *s), (RC, s))
-FORWARD(fmi2SetFMUstate, (fmi2Component c, fmi2FMUstate s), (RC, s))
-FORWARD(fmi2FreeFMUstate, (fmi2Component c, fmi2FMUstate *s), (RC, s))
-FORWARD(fmi2SerializedFMUstateSize, (fmi2Component c, fmi2FMUstate s, size_t *n), (RC, s, n))
-FORWARD(fmi2SerializeFMUstate, (fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t n),
-        (RC, s, b, n))
-FORWARD(fmi2DeSerializeFMUstate, (fmi2Component c, const fmi2Byte b[], size_t n,
-                                  fmi2FMUstate *s), (RC, b, n, s))
-FORWARD(fmi2GetDirectionalDerivative, (fmi2Component c, cvr_t u[], size_t nu, cvr_t k[],
-                                       size_t nk, const fmi2Real dk[], fmi2Real du[]),
-        (RC, u, nu, k, nk, dk, du))
-FORWARD(fmi2SetRealInputDerivatives, (fmi2Component c, cvr_t vr[], size_t n,
-                                      const fmi2Integer order[], const fmi2Real v[]),
+FORWARD(fmi2GetString, GETTABLE, 0, (fmi2Component c, cvr_t vr[], size_t n, fmi2String v[]),
+        (RC, vr, n, v))
+FORWARD(fmi2SetReal, SETTABLE, 0, (fmi2Component c, cvr_t vr[], size_t n, const fmi2Real v[]),
+        (RC, vr, n, v))
+FORWARD(fmi2SetInteger, SETTABLE, 0,
+        (fmi2Component c, cvr_t vr[], size_t n, const fmi2Integer v[]), (RC, vr, n, v))
+FORWARD(fmi2SetBoolean, SETTABLE, 0,
+        (fmi2Component c, cvr_t vr[], size_t n, const fmi2Boolean v[]), (RC, vr, n, v))
+FORWARD(fmi2SetString, SETTABLE, 0,
+        (fmi2Component c, cvr_t vr[], size_t n, const fmi2String v[]), (RC, vr, n, v))
+FORWARD(fmi2GetDirectionalDerivative, M_ANY, 0,
+        (fmi2Component c, cvr_t u[], size_t nu, cvr_t k[], size_t nk, const fmi2Real dk[],
+         fmi2Real du[]), (RC, u, nu, k, nk, dk, du))
+FORWARD(fmi2SetRealInputDerivatives, M_ANY, 0,
+        (fmi2Component c, cvr_t vr[], size_t n, const fmi2Integer order[], const fmi2Real v[]),
         (RC, vr, n, order, v))
-FORWARD(fmi2GetRealOutputDerivatives, (fmi2Component c, cvr_t vr[], size_t n,
-                                       const fmi2Integer order[], fmi2Real v[]),
+FORWARD(fmi2GetRealOutputDerivatives, M_ANY, 0,
+        (fmi2Component c, cvr_t vr[], size_t n, const fmi2Integer order[], fmi2Real v[]),
         (RC, vr, n, order, v))
-FORWARD(fmi2DoStep, (fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSet),
-        (RC, t, h, noSet))
-FORWARD(fmi2CancelStep, (fmi2Component c), (RC))
-FORWARD(fmi2GetStatus, (fmi2Component c, const fmi2StatusKind s, fmi2Status *v), (RC, s, v))
-FORWARD(fmi2GetRealStatus, (fmi2Component c, const fmi2StatusKind s, fmi2Real *v), (RC, s, v))
-FORWARD(fmi2GetIntegerStatus, (fmi2Component c, const fmi2StatusKind s, fmi2Integer *v),
+FORWARD(fmi2CancelStep, M_STEP, 0, (fmi2Component c), (RC))
+FORWARD(fmi2GetStatus, M_ANY, 0, (fmi2Component c, const fmi2StatusKind s, fmi2Status *v),
         (RC, s, v))
-FORWARD(fmi2GetStringStatus, (fmi2Component c, const fmi2StatusKind s, fmi2String *v), (RC, s, v))
+FORWARD(fmi2GetRealStatus, M_ANY, 0, (fmi2Component c, const fmi2StatusKind s, fmi2Real *v),
+        (RC, s, v))
+FORWARD(fmi2GetIntegerStatus, M_ANY, 0,
+        (fmi2Component c, const fmi2StatusKind s, fmi2Integer *v), (RC, s, v))
+FORWARD(fmi2GetStringStatus, M_ANY, 0,
+        (fmi2Component c, const fmi2StatusKind s, fmi2String *v), (RC, s, v))
+
+/* One call of the real binary on i, with the slave's reported status folded in. */
+#define CALL(expr)                                                     \
+    do {                                                               \
+        struct instance *outer_ = current;                             \
+        current = i;                                                   \
+        i->call_status = fmi2OK;                                       \
+        status = (expr);                                               \
+        current = outer_;                                              \
+        if (status < i->call_status) status = (fmi2Status)i->call_status; \
+    } while (0)
+
+#define INSTANCE_OR_ERROR()                                            \
+    struct instance *i = (struct instance *)c;                         \
+    fmi2Status status;                                                 \
+    if (!loaded || !i || !live_instance(i)) return fmi2Error
+
+FMI2_Export fmi2Status fmi2Reset(fmi2Component c)
+{
+    INSTANCE_OR_ERROR();
+    CALL(real.fmi2Reset(RC));
+    if (status <= fmi2Warning) {
+        i->failed = 0;
+        i->why[0] = '\0';
+        i->mode = M_INST;
+    }
+    return status;
+}
+
+FMI2_Export fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSet)
+{
+    INSTANCE_OR_ERROR();
+    if (!allowed(i, "fmi2DoStep", M_STEP)) return fmi2Error;
+    if (!(h > 0.0 && h < 1e300 && t == t && t - t == 0.0)) {
+        say(i->logger, i->env, i->name, fmi2Error, "logStatusError", "fmi2DoStep refused: "
+            "communication step size %g s must be > 0 and finite (at the communication "
+            "point %g s)", h, t);
+        return fmi2Error;
+    }
+    CALL(real.fmi2DoStep(RC, t, h, noSet));
+    return after(i, status, 0);
+}
+
+FMI2_Export fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *s)
+{
+    struct saved *rec;
+    fmi2FMUstate given;
+    INSTANCE_OR_ERROR();
+    if (!s) return fmi2Error;
+    given = *s;
+    if (given && saved_of(i, given)) { /* update a state given before, in place */
+        CALL(real.fmi2GetFMUstate(RC, s));
+        if (status <= fmi2Warning) (*saved_of(i, given))->mode = i->mode;
+        return status;
+    }
+    if (given) return not_a_state(i, "fmi2GetFMUstate");
+    rec = (struct saved *)calloc(1, sizeof *rec);
+    if (!rec) return fmi2Error;
+    CALL(real.fmi2GetFMUstate(RC, s));
+    if (status > fmi2Warning || !*s) {
+        free(rec);
+        return status > fmi2Warning ? status : fmi2Error;
+    }
+    rec->state = *s;
+    rec->mode = i->mode;
+    rec->next = i->states;
+    i->states = rec;
+    return status;
+}
+
+FMI2_Export fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate s)
+{
+    struct saved **rec;
+    INSTANCE_OR_ERROR();
+    rec = saved_of(i, s);
+    if (!rec) return not_a_state(i, "fmi2SetFMUstate");
+    CALL(real.fmi2SetFMUstate(RC, s));
+    return after(i, status, (*rec)->mode); /* the slave reports whether it failed */
+}
+
+FMI2_Export fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *s)
+{
+    struct saved **rec, *gone;
+    INSTANCE_OR_ERROR();
+    if (!s || !*s) return fmi2OK; /* the standard: freeing NULL does nothing */
+    rec = saved_of(i, *s);
+    if (!rec) return not_a_state(i, "fmi2FreeFMUstate");
+    gone = *rec;
+    *rec = gone->next;
+    free(gone);
+    CALL(real.fmi2FreeFMUstate(RC, s));
+    *s = NULL;
+    return status;
+}
+
+FMI2_Export fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *n)
+{
+    INSTANCE_OR_ERROR();
+    if (!saved_of(i, s)) return not_a_state(i, "fmi2SerializedFMUstateSize");
+    CALL(real.fmi2SerializedFMUstateSize(RC, s, n));
+    return status;
+}
+
+FMI2_Export fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte b[],
+                                             size_t n)
+{
+    INSTANCE_OR_ERROR();
+    if (!saved_of(i, s)) return not_a_state(i, "fmi2SerializeFMUstate");
+    CALL(real.fmi2SerializeFMUstate(RC, s, b, n));
+    return status;
+}
+
+FMI2_Export fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte b[], size_t n,
+                                               fmi2FMUstate *s)
+{
+    struct saved *rec;
+    INSTANCE_OR_ERROR();
+    if (!s) return fmi2Error;
+    if (*s && !saved_of(i, *s)) return not_a_state(i, "fmi2DeSerializeFMUstate");
+    rec = *s ? NULL : (struct saved *)calloc(1, sizeof *rec);
+    if (!*s && !rec) return fmi2Error;
+    CALL(real.fmi2DeSerializeFMUstate(RC, b, n, s));
+    if (status > fmi2Warning || !*s) {
+        free(rec);
+        return status > fmi2Warning ? status : fmi2Error;
+    }
+    if (rec) {
+        rec->state = *s;
+        rec->next = i->states;
+        i->states = rec;
+    } else {
+        rec = *saved_of(i, *s);
+    }
+    rec->mode = M_STEP; /* a state from bytes restores a stepping instance */
+    return status;
+}
 
 /* fmi2Terminated answered here: pythonfmu's binary says true after any fmi2Discard. */
 FMI2_Export fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s,
@@ -644,7 +885,7 @@ FMI2_Export fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKin
 {
     struct instance *i = (struct instance *)c, *outer;
     fmi2Status status;
-    if (!loaded || !i) return fmi2Error;
+    if (!loaded || !i || !live_instance(i)) return fmi2Error;
     if (s != fmi2Terminated) {
         outer = current;
         current = i;
