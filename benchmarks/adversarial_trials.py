@@ -87,7 +87,7 @@ def main() -> int:
         root = Path(tmp)
         t = Trials(root)
         models = root / "models"
-        subprocess.run([*GYRO, "build", "--out", str(models)], check=True,
+        subprocess.run([*GYRO, "build", "--dest", str(models)], check=True,
                        capture_output=True)
         run_trials(t, models)
     wall = time.perf_counter() - start
@@ -115,7 +115,7 @@ def run_trials(t: Trials, models: Path) -> None:
     # --- silent wrong answers of the issue ----------------------------------------------
     t.refused("a 150 kHz rate at 5 us steps", ["run", *short, "--rate", "sine:1:150000"],
               "Nyquist")
-    t.refused("--rate sine:1:0", ["run", *short, "--rate", "sine:1:0"], "sine:1:0")
+    t.refused("--rate sine:1:0", ["run", *short, "--rate", "sine:1:0"], "frequency 0 Hz")
     t.refused("a drive tone at 0 Hz", ["run", *short, "--drive", "f1=0"], "f1")
     t.refused("--tuning rate_model=1.5", ["run", *short, "--tuning", "rate_model=1.5"],
               "rate_model")
@@ -186,7 +186,7 @@ def run_trials(t: Trials, models: Path) -> None:
 
 def every_gyro_fails(t: Trials, models: Path) -> tuple[str, str]:
     code, out, err = t.run(["sweep", "-n", "2", "--stop-time", "0.002", "--no-figures",
-                            "--models", str(models), "--set", "m=1e-12", "--spread", "0",
+                            "--models", str(models), "--set", "kxy=1e9", "--spread", "0",
                             "--out", str(t.root / "sweep-fail"), "--workers", "1"],
                            timeout=300)
     if code is None:
@@ -198,10 +198,12 @@ def every_gyro_fails(t: Trials, models: Path) -> tuple[str, str]:
 
 def two_runs_one_folder(t: Trials, models: Path) -> tuple[str, str]:
     out = t.root / "shared"
-    argv = [*GYRO, "run", "--stop-time", "0.05", "--no-figures", "--models", str(models),
-                   "--out", str(out)]
+    argv = [*GYRO, "run", "--stop-time", "0.5", "--no-figures", "--models", str(models),
+            "--out", str(out)]
     first = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(2.0)
+    time.sleep(1.5)
+    if first.poll() is not None:
+        return "unclear", "harness: the first run ended before the second started"
     second = subprocess.run(argv, capture_output=True, text=True, timeout=300)
     first.communicate(timeout=300)
     if second.returncode == 0 and first.returncode == 0:

@@ -443,3 +443,16 @@ def test_every_folder_writing_command_refuses_a_folder_a_live_run_holds(tmp_path
     finally:
         holder.kill()
         holder.wait()
+
+
+def test_ssp_given_an_existing_folder_writes_into_it_and_nothing_beside(models_dir, tmp_path,
+                                                                       capsys):
+    """`ssp --out DIR` on a folder left an 11 MB DIR.part beside it: the package now goes
+    into the folder, written whole, and the user's files stay."""
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "keep.txt").write_text("mine")
+    assert main(["ssp", "--models", str(models_dir), "--out", str(out)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["GyroSystem.ssp", "keep.txt"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine"]
+    assert f"wrote {out / 'GyroSystem.ssp'}" in capsys.readouterr().out

@@ -46,6 +46,7 @@ from fmpy import read_model_description
 
 from ..cosim.master import Component, Connection, CoSimulationError, whole_steps
 from ..fmu.build import MODELS_DIR
+from ..outputs import atomic_write
 from ..upstream.libcosim_samples import get_real_samples
 from .scenario import Scenario, fmu_system, scenario
 
@@ -207,23 +208,27 @@ def write_ssp(sc: Scenario | None = None, models_dir: Path = MODELS_DIR,
     sets, as inline ParameterBindings that form the one parameter set
     `parameter_set`, each Real value with its unit; DefaultExperiment 0..stop_time; the
     communication step as an OSP annotation) and resources/*.fmu.
-    Default: models_dir/GyroSystem.ssp for the default scenario.
+    Default: models_dir/GyroSystem.ssp for the default scenario; a dest that is a folder
+    gets GyroSystem.ssp inside it.
     """
     sc = scenario() if sc is None else sc
     models_dir = Path(models_dir)
     dest = models_dir / f"{SYSTEM_NAME}.ssp" if dest is None else Path(dest)
+    if dest.is_dir():  # a folder given: the package goes into it
+        dest = dest / f"{SYSTEM_NAME}.ssp"
     components, connections = fmu_system(sc, models_dir)
     root, resources = system_structure(components, connections, sc.stop_time, sc.step,
                                        parameter_set)
     dest.parent.mkdir(parents=True, exist_ok=True)
     xml = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
-    tmp = dest.with_name(dest.name + ".part")
-    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
-        z.writestr("SystemStructure.ssd", xml)
-        for arcname, fmu in resources.items():
-            z.write(fmu, arcname)
-    tmp.replace(dest)  # never leave a half-written package under the final name
-    return dest
+
+    def write(tmp: Path) -> None:
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+            z.writestr("SystemStructure.ssd", xml)
+            for arcname, fmu in resources.items():
+                z.write(fmu, arcname)
+
+    return atomic_write(dest, write)  # whole under its name, or nothing left behind
 
 
 def _package_for_libcosim(ssp_path: Path, step: float, work: Path) -> Path:
