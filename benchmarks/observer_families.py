@@ -1,0 +1,283 @@
+"""GyroObserver.fmu at its defaults on random non-preset gyros, over the rate families a
+user meets: is the reported sigma honest, and does status say when the answer is wrong?
+
+    python benchmarks/observer_families.py [--gyros 8] [--seeds 4] [--noise 1e-5 1e-4]
+                                           [--families constant step gm10 ...] [--bound]
+
+Gyros (seeded draws, none a preset): x mode 2-20 kHz (log-uniform), y mode 1-15 % above
+or below it, Q 1e2-1e5 per axis (log-uniform), cross damping up to 10 % of
+sqrt(dxx dyy), cross stiffness up to 18 % of sqrt(kxx kyy), mass 1e-9-4e-7 kg. Drive: the
+FMU's default tones (TwoToneDrive: 4000 + 1200 Hz on x), scaled so that the peak
+displacement is 1e-8 m. Data: the C core's exact held-input plant (GyroPlantModel,
+checked against an independent DOP853 integrator in tests/test_reference.py), positions
+measured every 5 us with white noise of std noise x each channel's peak. The observer:
+GyroObserver.fmu through fmpy's FMU2Slave, every tuning at its default (adaptive rate
+model, noise not told), initial guesses 5 % off each parameter (random signs),
+Omega_z_0 = 0.
+
+Families (rad/s): constant 1; step 0 -> 1 at 50 ms; Gauss-Markov (Ornstein-Uhlenbeck)
+mean 1, std 0.5, bandwidth 10, 30 and 50 Hz; sin(2 pi 10 t) and sin(2 pi 100 t).
+
+Per family and noise, over the samples after 20 ms (the judged window):
+  err      RMS of Omega_hat - Omega_z
+  sig      RMS of the reported sigma_Omega_z
+  e/s      RMS of (Omega_hat - Omega_z) / sigma (1: honest; target 0.8-1.25)
+  >3s      share of samples with status 0 and |error| > 3 sigma (target < 0.5 %)
+  end>4s   runs whose last sample is more than 4 sigma off with status 0 (target 0)
+  flag     runs with a non-zero status at any sample in the window
+  blind    step only: ms after the step with status 0 and |error| > 5 sigma (mean, max)
+  bound    (--bound) RMS of the posterior Cramer-Rao bound at 40, 60, 80, 100 ms for the
+           first seed of each gyro (constant, sines, Gauss-Markov; the step has none), and
+           err/bound over the same samples
+"""
+
+from __future__ import annotations
+
+import os
+
+for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
+
+import argparse  # noqa: E402
+import math  # noqa: E402
+import shutil  # noqa: E402
+import time  # noqa: E402
+from dataclasses import dataclass  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+from fmpy import extract, read_model_description  # noqa: E402
+from fmpy.fmi2 import FMU2Slave  # noqa: E402
+
+from gyro_fmu.cosim.master import LogCollector, fmi2_callbacks  # noqa: E402
+from gyro_fmu.fmu.build import prebuilt_fmu  # noqa: E402
+from gyro_fmu.model.drive import TwoToneDrive  # noqa: E402
+from gyro_fmu.model.parameters import PARAMETER_NAMES, GyroParameters  # noqa: E402
+from gyro_fmu.model.plant import GyroPlantModel  # noqa: E402
+
+H = 5e-6
+WINDOW_START = 0.02
+FAMILIES = ("constant", "step", "gm10", "gm30", "gm50", "sine10", "sine100")
+STEP_AT = 0.05
+
+
+def random_gyro(rng: np.random.Generator) -> GyroParameters:
+    fx = math.exp(rng.uniform(math.log(2e3), math.log(2e4)))
+    fy = fx * (1 + rng.choice([-1, 1]) * rng.uniform(0.01, 0.15))
+    wx, wy = 2 * math.pi * fx, 2 * math.pi * fy
+    qx, qy = (math.exp(rng.uniform(math.log(1e2), math.log(1e5))) for _ in range(2))
+    dxx, dyy = wx / qx, wy / qy
+    return GyroParameters(
+        kxx=wx**2, kyy=wy**2, kxy=rng.uniform(-0.18, 0.18) * wx * wy,
+        dxx=dxx, dyy=dyy, dxy=rng.uniform(-0.1, 0.1) * math.sqrt(dxx * dyy),
+        m=math.exp(rng.uniform(math.log(1e-9), math.log(4e-7))))
+
+
+def rate_samples(family: str, n: int, rng: np.random.Generator) -> np.ndarray:
+    """Omega_z at t_0 .. t_n (held over each step by the plant)."""
+    t = np.arange(n + 1) * H
+    if family == "constant":
+        return np.ones(n + 1)
+    if family == "step":
+        return (t >= STEP_AT).astype(float)
+    if family.startswith("sine"):
+        return np.sin(2 * np.pi * float(family[4:]) * t)
+    bandwidth = float(family[2:])  # Ornstein-Uhlenbeck: exact discretization
+    a = math.exp(-2 * math.pi * bandwidth * H)
+    w = rng.standard_normal(n + 1) * 0.5 * math.sqrt(1 - a * a)
+    x = np.empty(n + 1)
+    x[0] = 0.5 * rng.standard_normal()
+    for k in range(n):
+        x[k + 1] = a * x[k] + w[k + 1]
+    return 1.0 + x
+
+
+def plant_run(p: GyroParameters, ux: np.ndarray, Omega: np.ndarray) -> np.ndarray:
+    """True [x, vx, y, vy] at t_0 .. t_{n-1} (what the observer measures at t_k)."""
+    plant = GyroPlantModel(p)
+    s = np.empty((len(ux), 4))
+    for k in range(len(ux)):
+        s[k] = plant.s
+        plant.step(ux[k], 0.0, Omega[k], H)
+    return s
+
+
+class ObserverFMU:
+    """GyroObserver.fmu through fmpy's FMU2Slave, reused across runs (fmi2Reset)."""
+
+    def __init__(self, fmu: Path) -> None:
+        md = read_model_description(fmu)
+        self.vr = {v.name: v.valueReference for v in md.modelVariables}
+        self.dir = extract(fmu)
+        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=self.dir,
+                               modelIdentifier=md.coSimulation.modelIdentifier,
+                               instanceName="observer")
+        self.log = LogCollector()  # the FMU's warnings are counted, not printed
+        self._callbacks = fmi2_callbacks(self.log)
+        self.slave.instantiate(callbacks=self._callbacks)
+        self.inputs = [self.vr[n] for n in ("ux", "x_meas", "y_meas")]
+        self.outputs = [self.vr[n] for n in ("Omega_hat", "sigma_Omega_z", "status")]
+
+    def run(self, start: dict[str, float], u: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """Rows [Omega_hat, sigma, status] at t_1 .. t_n."""
+        self.slave.reset()
+        self.slave.setupExperiment(startTime=0.0)
+        self.slave.enterInitializationMode()
+        self.slave.setReal([self.vr[n] for n in start], list(start.values()))
+        self.slave.exitInitializationMode()
+        out = np.empty((len(u), 3))
+        set_real, do_step, get_real = self.slave.setReal, self.slave.doStep, self.slave.getReal
+        inputs, outputs = self.inputs, self.outputs
+        for k in range(len(u)):
+            set_real(inputs, [u[k], z[k, 0], z[k, 1]])
+            do_step(k * H, H)
+            out[k] = get_real(outputs)
+        self.slave.terminate()
+        return out
+
+    def close(self) -> None:
+        self.slave.freeInstance()
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+
+@dataclass
+class Run:
+    family: str
+    noise: float
+    gyro: int
+    seed: int
+    err: np.ndarray        # Omega_hat - Omega_z at t_1 .. t_n
+    sigma: np.ndarray
+    status: np.ndarray
+    t: np.ndarray
+    bound: float | None = None
+    bound_err: float | None = None
+
+
+def one_gyro(obs: ObserverFMU, g: int, p: GyroParameters, families, noises, seeds, n,
+             bound: bool) -> list[Run]:
+    rng = np.random.default_rng(1000 + g)
+    drive = TwoToneDrive()
+    t = np.arange(n) * H
+    unit = np.array([drive.ux(tk) for tk in t])
+    peak = np.abs(plant_run(p, unit, np.ones(n))[:, 0]).max()
+    scale = 1e-8 / peak  # peak displacement 1e-8 m (the system is linear in the drive)
+    u = unit * scale
+    guess = {f"{k}_0": getattr(p, k) * (1 + 0.05 * rng.choice([-1, 1]))
+             for k in PARAMETER_NAMES}
+    guess["Omega_z_0"] = 0.0
+    runs = []
+    for family in families:
+        for seed in range(seeds):
+            Omega = rate_samples(family, n, np.random.default_rng((g, seed, 7)))
+            s = plant_run(p, u, Omega)
+            for noise in noises:
+                noise_rng = np.random.default_rng((g, seed, int(noise * 1e9)))
+                z = s[:, [0, 2]]
+                z = z + noise_rng.standard_normal(z.shape) * noise * np.abs(z).max(axis=0)
+                out = obs.run(guess, u, z)
+                run = Run(family, noise, g, seed, out[:, 0] - Omega[1:], out[:, 1],
+                          out[:, 2].astype(int), t + H)
+                if bound and seed == 0 and family != "step":
+                    run.bound, run.bound_err = posterior_bound(p, scale, family, noise,
+                                                               np.abs(s[:, [0, 2]]).max(axis=0),
+                                                               n, run)
+                runs.append(run)
+    return runs
+
+
+def posterior_bound(p, scale, family, noise, peaks, n, run) -> tuple[float, float]:
+    from gyro_fmu.estimation import rate_processes as rp
+    from gyro_fmu.estimation.tracking_bound import tracking_bound
+
+    if family == "constant":
+        rate = rp.constant_rate(1.0, H, n)
+    elif family.startswith("sine"):
+        rate = rp.sine_rate(H, n, float(family[4:]), 1.0)
+    else:
+        rate = rp.gauss_markov_rate(H, n, 0.5, float(family[2:]), mean=1.0, knot_step=100)
+    d = TwoToneDrive()
+    drive = TwoToneDrive(A1=d.A1 * scale, f1=d.f1, A2=d.A2 * scale, f2=d.f2)
+    t_eval = (0.04, 0.06, 0.08, n * H)
+    b = tracking_bound(p, drive, rate, noise * peaks, H, n, t_eval=t_eval, n_draws=4)
+    idx = [min(round(te / H) - 1, n - 1) for te in t_eval]
+    err = float(np.sqrt(np.mean(run.err[idx] ** 2)))
+    return float(np.sqrt(np.mean(np.asarray(b.sigma_Omega) ** 2))), err
+
+
+def summarize(runs: list[Run]) -> dict:
+    e, s, st = (np.concatenate([getattr(r, a)[r.t >= WINDOW_START] for r in runs])
+                for a in ("err", "sigma", "status"))
+    ok = st == 0
+    z = e / s
+    end_off = sum(1 for r in runs if r.status[-1] == 0 and abs(r.err[-1]) > 4 * r.sigma[-1])
+    worst_end = max(abs(r.err[-1]) / r.sigma[-1] for r in runs)
+    flagged = sum(1 for r in runs if (r.status[r.t >= WINDOW_START] != 0).any())
+    out = {"runs": len(runs), "err": float(np.sqrt(np.mean(e**2))),
+           "sig": float(np.sqrt(np.mean(s**2))), "e/s": float(np.sqrt(np.mean(z**2))),
+           ">3s": float(np.mean(ok & (np.abs(z) > 3))), "end>4s": end_off,
+           "worst_end": worst_end, "flag": flagged}
+    if runs[0].family == "step":
+        blind = [float(np.sum((r.t >= STEP_AT) & (r.status == 0)
+                              & (np.abs(r.err) > 5 * r.sigma)) * H) for r in runs]
+        out["blind_ms"] = (1e3 * float(np.mean(blind)), 1e3 * max(blind))
+    bounds = [(r.bound, r.bound_err) for r in runs if r.bound is not None]
+    if bounds:
+        b, be = np.array(bounds).T
+        out["bound"] = float(np.sqrt(np.mean(b**2)))
+        out["err/bound"] = float(np.sqrt(np.mean(be**2)) / out["bound"])
+    return out
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--gyros", type=int, default=8)
+    ap.add_argument("--seeds", type=int, default=4)
+    ap.add_argument("--noise", type=float, nargs="+", default=[1e-5, 1e-4])
+    ap.add_argument("--families", nargs="+", choices=FAMILIES, default=list(FAMILIES))
+    ap.add_argument("--stop-time", type=float, default=0.1)
+    ap.add_argument("--bound", action="store_true", help="the posterior bound (slow)")
+    ap.add_argument("--gyro-seed", type=int, default=2026)
+    args = ap.parse_args()
+    n = round(args.stop_time / H)
+    rng = np.random.default_rng(args.gyro_seed)
+    gyros = [random_gyro(rng) for _ in range(args.gyros)]
+    for g, p in enumerate(gyros):
+        fx, fy = (math.sqrt(k) / 2 / math.pi for k in (p.kxx, p.kyy))
+        print(f"gyro {g}: {fx:7.0f} / {fy:7.0f} Hz, Q {math.sqrt(p.kxx) / p.dxx:8.3g} / "
+              f"{math.sqrt(p.kyy) / p.dyy:8.3g}, kxy/sqrt(kxx kyy) "
+              f"{p.kxy / math.sqrt(p.kxx * p.kyy):+.3f}, m {p.m:.2g} kg")
+    obs = ObserverFMU(prebuilt_fmu("GyroObserver"))
+    start = time.perf_counter()
+    runs: list[Run] = []
+    try:
+        for g, p in enumerate(gyros):
+            runs += one_gyro(obs, g, p, args.families, args.noise, args.seeds, n, args.bound)
+    finally:
+        obs.close()
+    wall = time.perf_counter() - start
+    print(f"\n{len(runs)} runs of {args.stop_time * 1e3:g} ms in {wall:.0f} s; window "
+          f"{WINDOW_START * 1e3:g} ms to the end")
+    head = (f"{'family':<9} {'noise':>6} {'runs':>4} {'err':>9} {'sig':>9} {'e/s':>6} "
+            f"{'>3s':>7} {'end>4s':>6} {'worst':>7} {'flag':>4}  extra")
+    print(head)
+    total_end, total = 0, 0
+    for family in args.families:
+        for noise in args.noise:
+            s = summarize([r for r in runs if r.family == family and r.noise == noise])
+            total_end += s["end>4s"]
+            total += s["runs"]
+            extra = ""
+            if "blind_ms" in s:
+                extra += f"blind {s['blind_ms'][0]:.2f} ms mean, {s['blind_ms'][1]:.2f} max "
+            if "bound" in s:
+                extra += f"bound {s['bound']:.3g}, err/bound {s['err/bound']:.2f}"
+            print(f"{family:<9} {noise:>6.0e} {s['runs']:>4} {s['err']:>9.3g} {s['sig']:>9.3g} "
+                  f"{s['e/s']:>6.2f} {s['>3s']:>7.2%} {s['end>4s']:>6} {s['worst_end']:>7.1f} "
+                  f"{s['flag']:>4}  {extra}")
+    print(f"runs more than 4 sigma off at the end with status 0: {total_end} of {total}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
