@@ -31,6 +31,9 @@ from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from fmu_harness import HOSTILE_MEMBERS, hostile_archive
+
 CLASSES = ("ok", "unclear", "traceback", "crash", "hang", "corrupt", "silent", "outside")
 GYRO = [sys.executable, "-m", "gyro_fmu.cli"]
 
@@ -129,22 +132,9 @@ def run_trials(t: Trials, models: Path) -> None:
     fmu = models / "RateProfile.fmu"
     t.refused("validate --dy nan", ["validate", "--dy", "nan", str(fmu)], "--dy")
     t.refused("validate --dx -1", ["validate", "--dx", "-1", str(fmu)], "--dx")
-    for kind in ("dotdot", "symlink", "many"):
-        bad = root / f"{kind}.fmu"
-        shutil.copy(fmu, bad)
-        with zipfile.ZipFile(bad, "a") as z:
-            if kind == "dotdot":
-                z.writestr("../evil.txt", "x")
-            elif kind == "symlink":
-                info = zipfile.ZipInfo("resources/link")
-                info.external_attr = 0o120777 << 16
-                z.writestr(info, "/etc/passwd")
-            else:
-                for i in range(10_001):
-                    z.writestr(f"extra/f{i}", "")
+    for kind, words in HOSTILE_MEMBERS.items():
+        bad = hostile_archive(fmu, kind, root / f"{kind}.fmu")
         code, out, err = t.run(["validate", str(bad)])
-        words = {"dotdot": "outside the FMU's folder", "symlink": "symbolic link",
-                 "many": "more than the 10000"}[kind]
         t.add(f"validate an FMU with a {kind} member",
               "ok" if code == 1 and words in out else "silent" if code == 0 else "unclear",
               out + err)

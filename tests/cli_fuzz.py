@@ -89,22 +89,17 @@ def _argv(command: str, option: str | None, value: str, out: str) -> list[str]:
     return [command, *base, option, value]
 
 
-def run_trial(command: str, option: str | None, value: str, folder: Path, out: str = "out",
-              budget: float = 1.5, base_said: str | None = None) -> Trial:
-    """One trial in `folder` (which `prepare` gave models/ and a results.csv), writing
-    under folder/out; option None: the command's base run. `base_said`: what the base
-    run's refusal said (a trial refused with the same words ran like the base: the short
-    base settings, not the fuzzed value, were refused)."""
+def _invoke(argv: list[str], folder: Path, budget: float
+            ) -> tuple[int | None, str, str, str | None]:
+    """`gyro-fmu argv` in this process from `folder`, cut by an alarm after `budget` s (exit
+    130): (exit code, stdout, stderr, the escaped exception or None)."""
     from gyro_fmu import cli
-    from gyro_fmu.studies import tasks
 
-    argv = _argv(command, option, value, out)
     err, out = io.StringIO(), io.StringIO()
     code: int | None = None
     escaped = None
     previous = signal.signal(signal.SIGALRM, _alarm)
-    saved_tasks, cwd = tasks.run_tasks, os.getcwd()
-    tasks.run_tasks = _no_dask
+    cwd = os.getcwd()
     try:
         os.chdir(folder)
         signal.setitimer(signal.ITIMER_REAL, budget)
@@ -120,9 +115,25 @@ def run_trial(command: str, option: str | None, value: str, folder: Path, out: s
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
-        tasks.run_tasks = saved_tasks
         os.chdir(cwd)
-    text = err.getvalue()
+    return code, out.getvalue(), err.getvalue(), escaped
+
+
+def run_trial(command: str, option: str | None, value: str, folder: Path, out: str = "out",
+              budget: float = 1.5, base_said: str | None = None) -> Trial:
+    """One trial in `folder` (which `prepare` gave models/ and a results.csv), writing
+    under folder/out; option None: the command's base run. `base_said`: what the base
+    run's refusal said (a trial refused with the same words ran like the base: the short
+    base settings, not the fuzzed value, were refused)."""
+    from gyro_fmu.studies import tasks
+
+    argv = _argv(command, option, value, out)
+    saved_tasks = tasks.run_tasks
+    tasks.run_tasks = _no_dask
+    try:
+        code, _, text, escaped = _invoke(argv, folder, budget)
+    finally:
+        tasks.run_tasks = saved_tasks
     lines = [ln for ln in text.splitlines() if ln.strip()]
     said = escaped or (lines[-1] if lines else "")
     if escaped or "Traceback" in text:
@@ -220,32 +231,11 @@ def file_trial(label: str, what: str, path: Path, folder: Path, budget: float = 
     """One file argument given `what`: refused (exit 2, or validate's exit 1 with a FAIL
     line naming the file) or a traceback; "unclear" when the refusal names neither the
     file nor the argument; "ran" only for a folder where a folder is asked for."""
-    from gyro_fmu import cli
-
     argv = [a.replace("{}", str(path)) for a in FILE_ARGUMENTS[label]]
-    err, out = io.StringIO(), io.StringIO()
-    code, escaped = None, None
-    previous = signal.signal(signal.SIGALRM, _alarm)
-    cwd = os.getcwd()
-    try:
-        os.chdir(folder)
-        signal.setitimer(signal.ITIMER_REAL, budget)
-        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
-            try:
-                code = cli.main(argv)
-            except SystemExit as exc:
-                code = exc.code if isinstance(exc.code, int) else 2
-    except KeyboardInterrupt:
-        code = 130
-    except BaseException as exc:
-        escaped = "".join(traceback.format_exception_only(type(exc), exc)).strip()
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
-        os.chdir(cwd)
-    text = err.getvalue() + out.getvalue()
-    lines = [ln for ln in err.getvalue().splitlines() if ln.strip()]
-    said = escaped or (lines[-1] if lines else out.getvalue().strip()[-300:])
+    code, out, err, escaped = _invoke(argv, folder, budget)
+    text = err + out
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    said = escaped or (lines[-1] if lines else out.strip()[-300:])
     named = path.name in text or label.split()[-1].strip("=") in text
     if escaped or "Traceback" in text:
         outcome = "traceback"

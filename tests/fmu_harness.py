@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import shutil
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -144,3 +145,27 @@ def assert_bad_input_refused(fmu: Path, params: dict, action: tuple, message: st
         assert np.array_equal(np.array(before), np.array(inst.get(outputs)))  # not advanced
         assert inst.step(h) == 0  # recoverable: the next step goes on
     inst.close()  # fmi2Terminate and fmi2FreeInstance after the error
+
+
+#: Hostile archive members `hostile_archive` adds, and what validate must say of each.
+HOSTILE_MEMBERS = {"dotdot": "outside the FMU's folder", "symlink": "is a symbolic link",
+                   "many": "more than the 10000"}
+
+
+def hostile_archive(fmu: Path, kind: str, dest: Path) -> Path:
+    """A copy of fmu at dest with one hostile member added: "dotdot" (../evil.txt),
+    "symlink" (resources/link to /etc/passwd) or "many" (10,001 more members)."""
+    shutil.copy(fmu, dest)
+    with zipfile.ZipFile(dest, "a") as z:
+        if kind == "dotdot":
+            z.writestr("../evil.txt", "x")
+        elif kind == "symlink":
+            info = zipfile.ZipInfo("resources/link")
+            info.external_attr = 0o120777 << 16
+            z.writestr(info, "/etc/passwd")
+        elif kind == "many":
+            for i in range(10_001):
+                z.writestr(f"extra/f{i}", "")
+        else:
+            raise ValueError(f"kind={kind!r}: use one of {sorted(HOSTILE_MEMBERS)}")
+    return dest

@@ -233,8 +233,6 @@ def test_inputs_that_ran_to_a_wrong_number_with_exit_0_are_refused(tmp_path, cap
     a NaN or zero band for validate (everything 'matched'), an archive with a member
     outside its folder, a symbolic link or 10,001 members, sweep --workers 0 and a
     deadline past the stop time ('100 % within tolerance at 1000 ms' of a 4 ms run)."""
-    import shutil
-    import zipfile
 
     from gyro_fmu.fmu.build import prebuilt_fmu
     from gyro_fmu.model.parameters import ParameterError
@@ -256,21 +254,10 @@ def test_inputs_that_ran_to_a_wrong_number_with_exit_0_are_refused(tmp_path, cap
     for band in ({"dy": math.nan}, {"dy": 1.0}, {"dx": 0}):  # the library's own check
         with pytest.raises(ValueError, match=r"band d[xy]="):
             validate_files([plant], **band)
-    bad = []
-    for kind in ("dotdot", "symlink", "many"):
-        path = tmp_path / f"{kind}.fmu"
-        shutil.copy(plant, path)
-        with zipfile.ZipFile(path, "a") as z:
-            if kind == "dotdot":
-                z.writestr("../evil.txt", "x")
-            elif kind == "symlink":
-                info = zipfile.ZipInfo("resources/link")
-                info.external_attr = 0o120777 << 16
-                z.writestr(info, "/etc/passwd")
-            else:
-                for i in range(10_001):
-                    z.writestr(f"extra/f{i}", "")
-        bad.append(path)
+    from fmu_harness import hostile_archive
+
+    bad = [hostile_archive(plant, kind, tmp_path / f"{kind}.fmu")
+           for kind in ("dotdot", "symlink", "many")]
     assert main(["validate", *map(str, bad)]) == 1
     out = capsys.readouterr().out
     assert "'../evil.txt' would be unpacked outside the FMU's folder" in out
