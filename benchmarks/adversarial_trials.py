@@ -222,11 +222,13 @@ def sigterm_run(t: Trials, models: Path) -> tuple[str, str]:
     tmpdir = t.root / "tmp-sigterm"
     tmpdir.mkdir()
     out = t.root / "sigterm"
-    proc = subprocess.Popen([*GYRO, "run", "--stop-time", "0.5", "--no-figures", "--models",
+    proc = subprocess.Popen([*GYRO, "run", "--stop-time", "3", "--no-figures", "--models",
                                     str(models), "--out", str(out)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             env={**os.environ, "TMPDIR": str(tmpdir)})
     time.sleep(3.0)
+    if proc.poll() is not None:
+        return "unclear", "harness: the run ended before the SIGTERM"
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)
     left = list(tmpdir.iterdir())
