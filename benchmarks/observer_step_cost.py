@@ -15,7 +15,7 @@ from bench import observer_step_us
 
 from gyro_fmu.system.scenario import scenario
 
-NAMES = {0: "adaptive (4 models)", 1: "constant", 2: "tracking", 3: "expert"}
+NAMES = {0: "adaptive (7 models)", 1: "constant", 2: "tracking", 3: "expert"}
 
 
 def main(repeat: int = 7) -> None:

@@ -122,10 +122,11 @@ def test_a_wandering_rate_is_followed_and_its_sigma_stays_honest():
 
 
 def _core_filters(xs, Ps, mu, Pi):
-    """An adaptive observer whose four filters, probabilities and Pi are these."""
+    """An adaptive observer whose seven filters, probabilities and Pi are these."""
     obs = GyroStateObserver(preset("park-horowitz"), tuning=ObserverTuning())
     obs.xs[:], obs.Ps[:], obs.mu[:] = xs, Ps, mu
-    np.ctypeslib.as_array(obs._c.Pi)[:4, :4] = Pi
+    M = len(mu)
+    np.ctypeslib.as_array(obs._c.Pi)[:M, :M] = Pi
     return obs
 
 
@@ -134,14 +135,15 @@ def test_mixture_and_mixing_equal_their_definitions():
     the means); mix: each filter restarted from the mixture weighted by mu_i Pi[i, j] /
     c_j; identical filters mix to themselves."""
     rng = np.random.default_rng(0)
-    M, n = 4, 14
+    M, n = 7, 14
     xs = rng.standard_normal((M, n))
     A = rng.standard_normal((M, n, n))
     Ps = np.einsum("mij,mkj->mik", A, A)
-    w = np.array([0.2, 0.4, 0.3, 0.1])
-    Pi = np.array([[0.9, 0.05, 0.05, 0.0], [0.1, 0.8, 0.05, 0.05], [0.0, 0.3, 0.6, 0.1],
-                   [0.25, 0.25, 0.25, 0.25]])
-    mu = np.array([0.5, 0.3, 0.1, 0.1])
+    w = rng.dirichlet(np.ones(M))
+    Pi = rng.dirichlet(np.ones(M), size=M)  # rows sum to 1
+    Pi[0, 3] = 0.0  # a switch that cannot happen
+    Pi[0] /= Pi[0].sum()
+    mu = rng.dirichlet(np.ones(M))
     obs = _core_filters(xs, Ps, mu, Pi)
     x, P = np.empty(n), np.zeros((14, 14))
     obs._lib.gyro_observer_combine(obs._ref, w.ctypes.data_as(_DP), x.ctypes.data_as(_DP),
@@ -176,11 +178,16 @@ def intensity(order: int, span: float, bandwidth: float) -> float:
 
 
 def test_the_rate_processes_and_their_switching():
-    """Transitions and noise of the four models over h; rows of Pi sum to 1; the mean
-    time in a model is rate_dwell."""
+    """Transitions and noise of the seven models over h (constant, rough, slow, agile,
+    then rough at 3, 10 and 100 times its intensity); rows of Pi sum to 1; the mean time
+    in a model is rate_dwell."""
     tun = ObserverTuning()
     Fr, Qr, Pi = rate.rate_models(tun, H)
-    assert Fr.shape == Qr.shape == (4, 3, 3)
+    assert Fr.shape == Qr.shape == (7, 3, 3)
+    for j, grade in zip((4, 5, 6), (3.0, 10.0, 100.0), strict=True):
+        np.testing.assert_array_equal(Fr[j], np.diag([1.0, 0.0, 0.0]))
+        assert Qr[j][0, 0] == pytest.approx(grade * Qr[1][0, 0], rel=1e-14)
+        assert not Qr[j][1:].any()
     np.testing.assert_array_equal(Fr[0], np.diag([1.0, 0.0, 0.0]))  # constant
     assert not Qr[0].any()
     slow = tun.rate_bandwidth / SLOW_FRACTION
@@ -200,7 +207,8 @@ def test_the_rate_processes_and_their_switching():
 
 
 @pytest.mark.parametrize("rate_model, n, names", [
-    (0, 14, ("constant", "rough", "slow", "agile")), (1, 12, ("constant",)),
+    (0, 14, ("constant", "rough", "slow", "agile", "rough x3", "rough x10", "rough x100")),
+    (1, 12, ("constant",)),
     (2, 14, ("tracking",)), (3, 13, ("expert",))])
 def test_each_rate_model_runs_and_reports_its_probabilities(rate_model, n, names):
     obs = GyroStateObserver(scenario("default").params, 0.0, 1,

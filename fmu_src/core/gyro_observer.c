@@ -26,6 +26,11 @@ static const double STEP_NORM = 0.5;
 static const double STATE_NOISE = 1e-9;
 /* The adaptive set's rough and slow models follow rate_bandwidth / SLOW_FRACTION. */
 static const double SLOW_FRACTION = 10.0;
+/* More rough models (random walks of Omega_z) at these multiples of the rough model's
+ * intensity, after the four named ones: a wandering rate's intensity is chosen by the IMM
+ * likelihood among graded ones (one fixed intensity left 30-50 Hz wandering rates at
+ * error/sigma 1.9-2.7; docs/observer-rate-model.md). */
+static const double ROUGH_GRADES[GYRO_OBS_MMAX - 4] = {3.0, 10.0, 100.0};
 /* Auto prior of [x, vx, y, vy] started by the drive (plant at rest): this fraction of the
  * static deflection; 10 % or more let the velocity-pair filter converge to Omega -5.
  * Started by a measurement above its noise (a plant not known at rest): its size; 1 %
@@ -54,6 +59,10 @@ static const double REL_WARN = 0.02, REL_LOST = 0.2;
  * slowly varying misfit, not noise, so the sigmas (which assume white noise) are too
  * small. A converged noise-free filter has NIS ~1e-8 and is not flagged. */
 static const double CORR_WARN = 0.5, NIS_MIN = 0.1;
+/* Re-fit test: window time constant (s) and warning threshold on T (chi-square, 8 dof;
+ * measured on good runs in docs/observer-soundness.md). */
+static const double REFIT_TAU = 0.02;
+static const double REFIT_WARN = 40.0;
 /* kxx, kyy and 1/m must stay within this factor of their initial guesses. */
 static const double RATIO = 100.0;
 
@@ -77,6 +86,12 @@ const double gyro_observer_prior_fraction = PRIOR_FRACTION;
 double gyro_observer_factorial(int k) { return k >= 0 && k < 48 ? FACTORIAL[k] : -1.0; }
 
 size_t gyro_observer_size(void) { return sizeof(GyroObserver); }
+
+int gyro_observer_rough_grades(double *grades, int n) {
+    const int m = GYRO_OBS_MMAX - 4;
+    for (int i = 0; i < m && i < n; i++) grades[i] = ROUGH_GRADES[i];
+    return m;
+}
 
 static double dmax(double a, double b) { return a >= b ? a : b; }
 static double dmin(double a, double b) { return a <= b ? a : b; }
@@ -337,6 +352,123 @@ static void monitor_innovations(GyroObserver *o, const double nu[2], const doubl
     m->count += 1.0;
 }
 
+/* Re-fit test, at a correction: the score and its covariance take this correction (nu of
+ * the combined prediction, S = H P H' + R), then W <- (I - K H) W. */
+static void refit_correct(GyroObserver *o, const double nu[2], const double R[2], double h) {
+    const int i0 = o->i0, i1 = i0 + 2;
+    const double g0 = o->hgain[0], g1 = o->hgain[1];
+    const double a = o->P[i0][i0] * g0 * g0 + R[0];
+    const double b_ = o->P[i0][i1] * g0 * g1;
+    const double d = o->P[i1][i1] * g1 * g1 + R[1];
+    const double det = a * d - b_ * b_;
+    if (!(det > 0.0 && a > 0.0)) return;
+    const double s00 = d / det, s01 = -b_ / det, s11 = a / det; /* S^-1 */
+    GyroRefit *r = &o->refit;
+    const double lam = exp(-h / REFIT_TAU), lam2 = lam * lam;
+    double psi[2][8], sp[2][8]; /* psi = H W; sp = S^-1 psi */
+    for (int c = 0; c < 8; c++) {
+        psi[0][c] = g0 * r->W[i0][c];
+        psi[1][c] = g1 * r->W[i1][c];
+    }
+    for (int c = 0; c < 8; c++) {
+        sp[0][c] = s00 * psi[0][c] + s01 * psi[1][c];
+        sp[1][c] = s01 * psi[0][c] + s11 * psi[1][c];
+        r->g[c] = lam * r->g[c] + sp[0][c] * nu[0] + sp[1][c] * nu[1];
+    }
+    for (int c = 0; c < 8; c++)
+        for (int e = 0; e <= c; e++) {
+            const double v = lam2 * r->F[c][e] + psi[0][c] * sp[0][e] + psi[1][c] * sp[1][e];
+            r->F[c][e] = v;
+            r->F[e][c] = v;
+        }
+    r->weight = lam2 * r->weight + 1.0;
+    double K[4][2]; /* state rows of the combined gain P H' S^-1 */
+    for (int i = 0; i < 4; i++) {
+        const double p0 = o->P[i][i0] * g0, p1 = o->P[i][i1] * g1;
+        K[i][0] = p0 * s00 + p1 * s01;
+        K[i][1] = p0 * s01 + p1 * s11;
+    }
+    double W[4][8];
+    for (int i = 0; i < 4; i++)
+        for (int c = 0; c < 8; c++) W[i][c] = r->W[i][c] - K[i][0] * psi[0][c] - K[i][1] * psi[1][c];
+    memcpy(r->W, W, sizeof W);
+}
+
+/* Re-fit test, at a prediction over the held step (Phi, S): W <- Phi W + S. */
+static void refit_predict(GyroObserver *o, const double Phi[4][4], const double S[4][8]) {
+    double W[4][8];
+    for (int i = 0; i < 4; i++)
+        for (int c = 0; c < 8; c++) {
+            double acc = S[i][c];
+            for (int k = 0; k < 4; k++) acc += Phi[i][k] * o->refit.W[k][c];
+            W[i][c] = acc;
+        }
+    memcpy(o->refit.W, W, sizeof W);
+}
+
+/* A rejected estimate restarted along the re-fit's move: every rate model's covariance of
+ * (p, Omega_z) gains move move' (rank one: stays positive definite), so the filter's gain
+ * re-opens where the recent data disagree and its sigmas cover the move; the window starts
+ * afresh. */
+static void refit_restart(GyroObserver *o) {
+    GyroRefit *r = &o->refit;
+    for (int j = 0; j < o->n_models; j++)
+        for (int a = 0; a < 8; a++)
+            for (int b = 0; b < 8; b++) o->Ps[j][IPAR + a][IPAR + b] += r->move[a] * r->move[b];
+    for (int a = 0; a < 8; a++)
+        for (int b = 0; b < 8; b++) o->P[IPAR + a][IPAR + b] += r->move[a] * r->move[b];
+    memset(r->g, 0, sizeof r->g);
+    memset(r->F, 0, sizeof r->F);
+    r->weight = 0.0;
+    r->restarts += 1.0;
+}
+
+/* Re-fit test, judged: T = g' F^-1 g (a Cholesky factor of F with a relative ridge of
+ * 1e-10 on its diagonal; a direction the window cannot see adds nothing) once the window
+ * is full (weight >= 0.8 of its limit). shift = the Gauss-Newton move of the window's
+ * weighted fit, F1^-1 g with F1 = sum lambda^(N-k) psi' S^-1 psi ~ (1 + lambda) F, in the
+ * filter's sigmas. Returns T, or -1 when not judged. */
+static double refit_judge(GyroObserver *o, double h) {
+    GyroRefit *r = &o->refit;
+    const double lam2 = exp(-2.0 * h / REFIT_TAU);
+    if (!(r->weight >= 0.8 / (1.0 - lam2))) return -1.0;
+    double L[8][8] = {{0}}, y[8], v[8];
+    for (int j = 0; j < 8; j++) {
+        double acc = r->F[j][j] * (1.0 + 1e-10);
+        for (int k = 0; k < j; k++) acc -= L[j][k] * L[j][k];
+        if (!(acc > 0.0)) { /* a direction with no information: skip it */
+            L[j][j] = 0.0;
+            continue;
+        }
+        L[j][j] = sqrt(acc);
+        for (int i = j + 1; i < 8; i++) {
+            double a = r->F[i][j];
+            for (int k = 0; k < j; k++) a -= L[i][k] * L[j][k];
+            L[i][j] = a / L[j][j];
+        }
+    }
+    double T = 0.0;
+    for (int i = 0; i < 8; i++) { /* L y = g */
+        double acc = r->g[i];
+        for (int k = 0; k < i; k++) acc -= L[i][k] * y[k];
+        y[i] = L[i][i] > 0.0 ? acc / L[i][i] : 0.0;
+        T += y[i] * y[i];
+    }
+    for (int i = 7; i >= 0; i--) { /* L' v = y: v = F^-1 g */
+        double acc = y[i];
+        for (int k = i + 1; k < 8; k++) acc -= L[k][i] * v[k];
+        v[i] = L[i][i] > 0.0 ? acc / L[i][i] : 0.0;
+    }
+    const double lam = exp(-h / REFIT_TAU); /* F1 = sum lambda^(N-k) a ~ F (1 + lambda) */
+    for (int i = 0; i < 8; i++) {
+        const double sd = sqrt(dmax(o->P[IPAR + i][IPAR + i], 0.0));
+        r->move[i] = v[i] / (1.0 + lam);
+        r->shift[i] = sd > 0.0 ? r->move[i] / sd : 0.0;
+    }
+    r->last_T = T;
+    return T;
+}
+
 /* ------------------------------------------------------------ IMM over the rate models */
 
 /* x, P = the mixture of the filters (xs, Ps) with weights w (eqs. 11.6.6-21, -22). */
@@ -396,6 +528,7 @@ static void imm_update(GyroObserver *o, double z1, double z2, double h) {
     double R[2], nu[2], ll[GYRO_OBS_MMAX];
     noise_variances(o, z1, z2, h, R, nu);
     monitor_innovations(o, nu, R);
+    refit_correct(o, nu, R, h);
     const int M = o->n_models;
     for (int j = 0; j < M; j++) {
         double logdet;
@@ -490,6 +623,7 @@ static void predict_about(const GyroObserver *o, const double *xbar, const doubl
 static void imm_predict(GyroObserver *o, double ux, double uy, double h) {
     double s1[4], Phi[4][4], S[4][8], xbar[NMAX];
     linearize(o, o->x, ux, uy, h, s1, Phi, S);
+    refit_predict(o, (const double(*)[4])Phi, (const double(*)[8])S);
     gyro_observer_mix(o);
     const double a0 = STATE_NOISE * o->peak[0] / o->hgain[0];
     const double a1 = STATE_NOISE * o->peak[1] / o->hgain[1];
@@ -539,7 +673,8 @@ void gyro_observer_set_step(GyroObserver *o, double h) {
         orders[1] = 1, qs[1] = intensity(1, span, slow);
         orders[2] = 2, qs[2] = intensity(2, span, slow);
         orders[3] = 3, qs[3] = intensity(3, span, f);
-        M = 4;
+        M = GYRO_OBS_MMAX;
+        for (int j = 4; j < M; j++) orders[j] = 1, qs[j] = ROUGH_GRADES[j - 4] * qs[1];
         break;
     }
     case 1: orders[0] = 1, qs[0] = 0.0; break;
@@ -651,8 +786,16 @@ static int monitor_check(GyroObserver *o) {
             m->value = lim->absolute ? nis : rel;
         } else if (corr > lim->corr_warn && nis > lim->nis_min) {
             status = GYRO_MON_WARN;
-            m->which = 2;
+            m->which = GYRO_WARN_CORR;
             m->value = corr;
+        }
+        const double T = refit_judge(o, o->h_cached);
+        if (T >= 0.0) o->refit.pending = T > REFIT_WARN;
+        if (T > REFIT_WARN) refit_restart(o);
+        if (status == GYRO_MON_OK && o->refit.pending) { /* until a window judges it good */
+            status = GYRO_MON_WARN;
+            m->which = GYRO_WARN_REFIT;
+            m->value = o->refit.last_T;
         }
         m->status = status;
     }
@@ -719,12 +862,39 @@ static void lose(GyroObserver *o, double h) {
     o->lost = 1;
 }
 
+/* The re-fit test's last rejection in words: T, the two largest moves, the restart. */
+static void refit_text(const GyroObserver *o, char *what, size_t n) {
+    int a = 0, b = 1; /* the two largest moves */
+    for (int i = 0; i < 8; i++)
+        if (fabs(o->refit.shift[i]) > fabs(o->refit.shift[a])) a = i;
+    if (b == a) b = 0;
+    for (int i = 0; i < 8; i++)
+        if (i != a && fabs(o->refit.shift[i]) > fabs(o->refit.shift[b])) b = i;
+    snprintf(what, n, "a re-fit of the last %g ms of data rejects its estimate (chi-square "
+             "%.4g over 8 dof, warning above %g) and would move %s by %+.3g sigma and %s by "
+             "%+.3g sigma: the estimate and its sigmas did not fit the recent data; restarted "
+             "along that move (restart %d), judged again in %.3g ms", 1e3 * REFIT_TAU,
+             o->refit.last_T, REFIT_WARN, PAR_NAMES[a], o->refit.shift[a], PAR_NAMES[b],
+             o->refit.shift[b], (int)o->refit.restarts, 1e3 * REFIT_TAU * 0.5 * log(5.0));
+}
+
+int gyro_observer_restart_message(const GyroObserver *o, char *msg, size_t n) {
+    if (n) msg[0] = '\0';
+    if (!(o->refit.restarts > 0.0)) return 0;
+    char what[600];
+    refit_text(o, what, sizeof what);
+    snprintf(msg, n, "observer at t=%.6g s: %s", o->t, what);
+    return 1;
+}
+
 int gyro_observer_warning(const GyroObserver *o, char *msg, size_t n) {
     if (o->status != 1) return 0;
     const GyroMonitor *m = &o->mon;
     const GyroMonitorLimits *lim = &o->lim;
     char what[400];
-    if ((int)m->which == 2)
+    if ((int)m->which == GYRO_WARN_REFIT) {
+        refit_text(o, what, sizeof what);
+    } else if ((int)m->which == GYRO_WARN_CORR)
         snprintf(what, sizeof what, "its innovations are not white (lag-1 autocorrelation "
                  "%.2g over %d corrections): a misfit the sigmas do not count", m->value,
                  lim->block);
@@ -879,7 +1049,7 @@ int gyro_observer_init(GyroObserver *o, const GyroParams *guess, double Omega_z_
     o->pair = pair;
     o->order = tun->rate_model == 1 ? 1 : tun->rate_model == 3 ? tun->omega_order : 3;
     o->n = 4 + GYRO_OBS_NPAR + o->order;
-    o->n_models = tun->rate_model == 0 ? 4 : 1;
+    o->n_models = tun->rate_model == 0 ? GYRO_OBS_MMAX : 1;
     o->i0 = pair == 1 ? 0 : 1;
     const double wx = sqrt(guess->kxx), wy = sqrt(guess->kyy);
     const double theta0[GYRO_OBS_NPAR] = {guess->kxx, guess->kyy, guess->kxy, guess->dxx,
@@ -915,6 +1085,7 @@ int gyro_observer_init(GyroObserver *o, const GyroParams *guess, double Omega_z_
     o->peak[0] = sig[o->i0] * o->hgain[0];
     o->peak[1] = sig[o->i0 + 2] * o->hgain[1];
     o->nu2[0] = o->nu2[1] = -1.0;
+    o->refit.last_T = -1.0;
     return 0;
 }
 
@@ -1063,7 +1234,10 @@ void gyro_observer_outputs(const GyroObserver *o, double out[20]) {
 void gyro_observer_rate_probabilities(const GyroObserver *o, double p[4]) {
     p[0] = p[1] = p[2] = p[3] = 0.0;
     switch (o->tuning.rate_model) {
-    case 0: memcpy(p, o->c, 4 * sizeof(double)); break;
+    case 0:
+        memcpy(p, o->c, 4 * sizeof(double));
+        for (int j = 4; j < o->n_models; j++) p[1] += o->c[j]; /* graded rough models */
+        break;
     case 1: p[0] = 1.0; break;
     case 2: p[3] = 1.0; break;
     default: break;
@@ -1092,6 +1266,9 @@ int gyro_observer_restored_problem(const GyroObserver *o, const GyroParams *gues
         finite = isfinite(o->x[i]);
         for (int j = 0; j < o->n && finite; j++) finite = isfinite(o->P[i][j]);
     }
+    const double *rf = &o->refit.W[0][0]; /* the re-fit test's numbers, all of them */
+    for (size_t i = 0; i < sizeof o->refit / sizeof(double) && finite; i++)
+        finite = isfinite(rf[i]);
     if (!finite || o->status < 0 || o->status > 2 || (o->lost != 0 && o->lost != 1)) {
         snprintf(msg, n, "the saved observer holds non-finite numbers or an unknown status");
         return 1;

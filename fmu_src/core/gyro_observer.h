@@ -24,7 +24,7 @@
 #define GYRO_OBS_IPAR 4  /* filter-state row of the first parameter */
 #define GYRO_OBS_IOM 11  /* filter-state row of Omega_z */
 #define GYRO_OBS_NMAX 14 /* most filter states (rate block of 3) */
-#define GYRO_OBS_MMAX 4  /* most rate models (the adaptive set) */
+#define GYRO_OBS_MMAX 7  /* most rate models (the adaptive set) */
 #define GYRO_OBS_RMAX 3  /* most rate-block states */
 #define GYRO_OBS_KMAX 24 /* most Taylor terms of the held step (||A h|| <= 0.5 needs 18) */
 #define GYRO_OBS_MESSAGE 1024
@@ -57,6 +57,8 @@ typedef struct {
 /* Monitor verdicts: 0 ok, 1 warning, >= 2 lost, by cause. */
 enum { GYRO_MON_OK, GYRO_MON_WARN, GYRO_MON_NONFINITE, GYRO_MON_NOT_SPD, GYRO_MON_BOUNDS,
        GYRO_MON_INNOVATIONS };
+/* GyroMonitor.which of a warning: what tripped it. */
+enum { GYRO_WARN_NIS, GYRO_WARN_REL, GYRO_WARN_CORR, GYRO_WARN_REFIT };
 
 /* The monitor's accumulators over the current block and its last verdict. */
 typedef struct {
@@ -68,6 +70,26 @@ typedef struct {
     double last_corr;        /* the last block's larger lag-1 autocorrelation */
 } GyroMonitor;
 
+/* The re-fit test: does a re-fit of the last ~tau of data move the estimate? With the
+ * parameters and Omega_z held at the estimate, W = d[x, vx/wx, y, vy/wy]^- / d(p, Omega_z)
+ * is the predicted plant state's sensitivity (W <- Phi (I - K H) W + S each step, K the
+ * state rows of the combined gain); psi = H W is that of the innovations nu. The score
+ * g = sum lambda^(N-k) psi' S^-1 nu and its covariance F = sum lambda^(2(N-k)) psi' S^-1
+ * psi (lambda = exp(-h / tau)) give T = g' F^-1 g, chi-square with 8 dof while the
+ * estimate fits the window: the drop in chi-square a Gauss-Newton re-fit of the window
+ * would gain (docs/observer-soundness.md). */
+typedef struct {
+    double W[4][8];
+    double g[8];
+    double F[8][8];
+    double weight;       /* sum of lambda^(2(N-k)) so far: the window is judged once full */
+    double last_T;       /* T at the last block judged (-1: not judged yet) */
+    double shift[8];     /* the re-fit's move of (p, Omega_z) at the last block, in sigmas */
+    double move[8];      /* ... in the filter's units */
+    double restarts;     /* re-fits that rejected the estimate (each re-opened P along move) */
+    double pending;      /* 1: the last judged window rejected the estimate; the next judges */
+} GyroRefit;
+
 /* What one observer is: constants of its scaling, the rate models of the current step
  * and its state. A plain struct (no pointers): an FMU state is a copy of it. */
 typedef struct {
@@ -75,7 +97,7 @@ typedef struct {
     int32_t pair;        /* 1: positions x, y measured; 2: velocities vx, vy */
     int32_t n;           /* filter states: 4 + 7 + order */
     int32_t order;       /* rate-block states */
-    int32_t n_models;    /* rate models run (4 adaptive, else 1) */
+    int32_t n_models;    /* rate models run (GYRO_OBS_MMAX adaptive, else 1) */
     int32_t i0;          /* filter-state row of z1 (z2 is row i0 + 2) */
     int32_t auto_prior;  /* the prior of [x, vx, y, vy] waits for the first signal */
     int32_t status;      /* 0 ok, 1 warning, 2 lost */
@@ -99,6 +121,7 @@ typedef struct {
     double peak[2];           /* running peak |z1|, |z2| */
     double nu2[2];            /* EWMA of squared innovations (< 0: not started) */
     GyroMonitor mon;
+    GyroRefit refit;
     double t;                 /* s since construction */
     char lost_message[GYRO_OBS_MESSAGE];
 } GyroObserver;
@@ -146,6 +169,10 @@ void gyro_observer_outputs(const GyroObserver *o, double out[20]);
  * model probabilities; a fixed model 1 for its kind (agile for tracking); expert all 0. */
 void gyro_observer_rate_probabilities(const GyroObserver *o, double p[4]);
 
+/* The re-fit test's last restart in words (0 when it never restarted): what the FMU logs
+ * at each restart, whatever the status. */
+int gyro_observer_restart_message(const GyroObserver *o, char *msg, size_t n);
+
 /* The warning of status 1 in words (0 when the status is not 1). */
 int gyro_observer_warning(const GyroObserver *o, char *msg, size_t n);
 
@@ -187,5 +214,9 @@ int gyro_observer_cholesky_ok(const double *P, int n);
 double gyro_observer_factorial(int k);
 
 size_t gyro_observer_size(void);
+
+/* The adaptive set's graded rough models after its four named ones: writes up to n of
+ * their intensities as multiples of the rough model's; returns how many there are. */
+int gyro_observer_rough_grades(double *grades, int n);
 
 #endif

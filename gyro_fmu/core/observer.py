@@ -13,7 +13,7 @@ from ctypes import POINTER, c_char, c_char_p, c_double, c_int, c_int32, c_size_t
 
 from .library import Params, core
 
-NPAR, IPAR, IOM, NMAX, MMAX, RMAX = 7, 4, 11, 14, 4, 3
+NPAR, IPAR, IOM, NMAX, MMAX, RMAX = 7, 4, 11, 14, 7, 3
 #: Result codes of gyro_observer_step / update / predict.
 STEP_OK, STEP_WARNING, STEP_LOST, BAD_INPUT, TOO_COARSE, REFUSED = 0, 1, 2, -1, -2, -3
 #: GyroObserverTuning's Integer fields (the rest are doubles).
@@ -45,6 +45,12 @@ class Monitor(ctypes.Structure):
                 ("prev", _D * 2), ("ac", _D * 2), ("sq", _D * 2), ("last_corr", _D)]
 
 
+class Refit(ctypes.Structure):
+    _fields_ = [("W", _D * 8 * 4), ("g", _D * 8), ("F", _D * 8 * 8), ("weight", _D),
+                ("last_T", _D), ("shift", _D * 8), ("move", _D * 8), ("restarts", _D),
+                ("pending", _D)]
+
+
 class Observer(ctypes.Structure):
     _fields_ = [("tuning", Tuning),
                 *((n, c_int32) for n in ("pair", "n", "order", "n_models", "i0", "auto_prior",
@@ -56,7 +62,8 @@ class Observer(ctypes.Structure):
                 ("Pi", _D * MMAX * MMAX),
                 ("x", _D * NMAX), ("P", _D * NMAX * NMAX), ("xs", _D * NMAX * MMAX),
                 ("Ps", _D * NMAX * NMAX * MMAX), ("mu", _D * MMAX), ("c", _D * MMAX),
-                ("peak", _D * 2), ("nu2", _D * 2), ("mon", Monitor), ("t", _D),
+                ("peak", _D * 2), ("nu2", _D * 2), ("mon", Monitor), ("refit", Refit),
+                ("t", _D),
                 ("lost_message", c_char * 1024)]
 
 
@@ -64,6 +71,7 @@ _O = POINTER(Observer)
 _DP = POINTER(c_double)
 FUNCTIONS = {
     "gyro_observer_size": (c_size_t, []),
+    "gyro_observer_rough_grades": (c_int, [_DP, c_int]),
     "gyro_observer_tuning_problems": (c_int, [POINTER(Tuning), c_char_p, c_size_t]),
     "gyro_observer_init": (c_int, [_O, POINTER(Params), _D, c_int, POINTER(Tuning), c_char_p,
                                    c_size_t]),
@@ -74,6 +82,7 @@ FUNCTIONS = {
     "gyro_observer_outputs": (None, [_O, _DP]),
     "gyro_observer_rate_probabilities": (None, [_O, _DP]),
     "gyro_observer_warning": (c_int, [_O, c_char_p, c_size_t]),
+    "gyro_observer_restart_message": (c_int, [_O, c_char_p, c_size_t]),
     "gyro_observer_set_scaling": (None, [_O, _D, _D, _DP, _DP]),
     "gyro_observer_set_step": (None, [_O, _D]),
     "gyro_observer_cholesky_ok": (c_int, [_DP, c_int]),
@@ -95,6 +104,13 @@ def observer_core() -> ctypes.CDLL:
                           f"the core's GyroObserver {lib.gyro_observer_size()}: rebuild the core "
                           "(python build_fmu.py --native)")
     return lib
+
+
+def rough_grades() -> tuple[float, ...]:
+    """The adaptive set's graded rough models: intensities as multiples of the rough one's."""
+    buf = (c_double * MMAX)()
+    m = observer_core().gyro_observer_rough_grades(buf, MMAX)
+    return tuple(buf[:m])
 
 
 def prior_fraction() -> float:

@@ -32,7 +32,8 @@ HAT = {"Omega_z": "Omega_hat"}  # the patent's Omega_z' is published as Omega_ha
 #: What each of observer_rate.RATE_KINDS means, for the p_rate_* descriptions.
 RATE_KIND_MEANINGS = {
     "constant": "Omega_z held",
-    "rough": "Omega_z wandering (random walk) at up to a tenth of rate_bandwidth",
+    "rough": ("Omega_z wandering (random walks of four graded intensities, from what a "
+              "tenth of rate_bandwidth needs to 100 times it)"),
     "slow": "Omega_z moving smoothly at up to a tenth of rate_bandwidth",
     "agile": "Omega_z moving smoothly at up to rate_bandwidth"}
 #: The outputs in the order of GyroStateObserver.output_row().

@@ -31,7 +31,8 @@ from .observer_tuning import ObserverTuning
 
 __all__ = ["GyroStateObserver", "ObserverDivergedError", "ObserverStepError", "ObserverTuning"]
 
-_STATE_VERSION = 3
+_STATE_VERSION = 4
+_REFIT_ARRAYS = ("W", "g", "F", "shift", "move")  #: the re-fit test's array fields
 N_PAR = cobs.NPAR  #: kxx, kyy, kxy, dxx, dyy, dxy, b = 1/m
 I_PAR = cobs.IPAR  #: filter-state row of the first parameter
 I_OM = cobs.IOM  #: filter-state row of Omega_z
@@ -220,6 +221,18 @@ class GyroStateObserver:
             return self._msg.value.decode()
         return None
 
+    @property
+    def restarts(self) -> int:
+        """How often the re-fit test rejected the estimate and restarted it."""
+        return int(self._c.refit.restarts)
+
+    @property
+    def restart_message(self) -> str | None:
+        """The last re-fit restart in words (what GyroObserver.fmu logs), or None."""
+        if self._lib.gyro_observer_restart_message(self._ref, self._msg, 2048):
+            return self._msg.value.decode()
+        return None
+
     def held_step(self, s: np.ndarray, ux: float, uy: float, h: float,
                   theta: np.ndarray | None = None, Omega_z: float | None = None
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -288,6 +301,9 @@ class GyroStateObserver:
             "peak": self.peak.tolist(),
             "nu2": self._view("nu2").tolist(),
             "monitor": [*numbers, self.status, self.lost, bool(self._c.auto_prior)],
+            "refit": {name: np.ctypeslib.as_array(getattr(self._c.refit, name)).tolist()
+                      if name in _REFIT_ARRAYS else getattr(self._c.refit, name)
+                      for name, _ in type(self._c.refit)._fields_},
             "t": self.t,
         }
 
@@ -353,6 +369,16 @@ class GyroStateObserver:
         c.lost = int(lost is not None)
         c.lost_message = (lost or "").encode()[:1023]
         c.auto_prior = int(bool(mon[N_MON + 2]))
+        refit = state.get("refit")
+        if not isinstance(refit, dict) or set(refit) != {f for f, _ in type(c.refit)._fields_}:
+            raise ValueError(f"observer state refit {refit!r}: expected the re-fit test's "
+                             "fields W, g, F, weight, last_T, shift, move, restarts, pending")
+        for name, value in refit.items():
+            if name in _REFIT_ARRAYS:
+                view = np.ctypeslib.as_array(getattr(c.refit, name))
+                view[...] = np.array(value, dtype=float).reshape(view.shape)
+            else:
+                setattr(c.refit, name, float(value))
         c.t = float(state["t"])
         self._c, self._ref, self._lib, self._msg = c, ctypes.byref(c), other._lib, other._msg
         self.tuning, self.measured_pair, self.rate_models = tuning, pair, other.rate_models

@@ -7,4 +7,10 @@ as the loops the C core runs. With numpy's product the outputs differ from the c
 up to 7e-9 relative on 19 of 20 random gyros with coarse steps (measured); with the loops,
 by nothing. The core keeps the rest of the operation order, so the tests compare bit for
 bit. Needs numba (the test extra).
+
+Since 0.3.0 the C core has changed the adaptive rate model's set, and the oracle follows:
+three more rough models at 3, 10 and 100 times the rough model's intensity
+(observer_rate.ROUGH_GRADES; their probabilities count as "rough"). The re-fit test of the
+core changes only the status, once its 20 ms window is full: the oracle's cases are
+shorter.
 """

@@ -364,7 +364,8 @@ class GyroStateObserver:
         out = dict.fromkeys(rate.RATE_KINDS, 0.0)
         kind = rate.RateModel(int(self.tuning.rate_model))
         if kind is rate.RateModel.adaptive:
-            out.update(zip(self.rate_models, self.c.tolist(), strict=True))
+            for name, c in zip(self.rate_models, self.c.tolist(), strict=True):
+                out[name] += c  # the graded rough models count as rough
         elif kind is rate.RateModel.constant:
             out["constant"] = 1.0
         elif kind is rate.RateModel.tracking:

@@ -49,6 +49,8 @@ class RateModel(IntEnum):
 STATE_NOISE = 1e-9
 #: The adaptive set's models (rate_probabilities, the FMU's p_rate_* outputs).
 RATE_KINDS = ("constant", "rough", "slow", "agile")
+#: Graded rough models after the four (1.0, not 0.3.0: see tests/oracle_observer/__init__.py).
+ROUGH_GRADES = (3.0, 10.0, 100.0)
 #: The rough and slow models of the adaptive set follow rate_bandwidth divided by this.
 SLOW_FRACTION = 10.0
 
@@ -89,7 +91,9 @@ def rate_block_size(tuning) -> int:
 def model_names(tuning) -> tuple[str, ...]:
     """Names of the rate models the observer runs (the FMU's p_rate_* outputs)."""
     kind = RateModel(int(tuning.rate_model))
-    return RATE_KINDS if kind is RateModel.adaptive else (kind.name,)
+    if kind is RateModel.adaptive:
+        return RATE_KINDS + ("rough",) * len(ROUGH_GRADES)
+    return (kind.name,)
 
 
 def rate_models(tuning, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -100,8 +104,9 @@ def rate_models(tuning, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     span, f = float(tuning.rate_span), float(tuning.rate_bandwidth)
     if kind is RateModel.adaptive:
         slow = f / SLOW_FRACTION
-        specs = [(1, 0.0), (1, intensity(1, span, slow)), (2, intensity(2, span, slow)),
-                 (3, intensity(3, span, f))]
+        rough = intensity(1, span, slow)
+        specs = [(1, 0.0), (1, rough), (2, intensity(2, span, slow)), (3, intensity(3, span, f)),
+                 *((1, grade * rough) for grade in ROUGH_GRADES)]
     elif kind is RateModel.constant:
         specs = [(1, 0.0)]
     elif kind is RateModel.tracking:

@@ -12,13 +12,15 @@
 #include "model.h"
 #include "variables.h"
 
-/* Status-1 warnings logged per instance (a noisy run may enter and leave status 1 often). */
+/* Status-1 warnings logged per instance (a noisy run may enter and leave status 1 often),
+ * and re-fit restarts logged (each is an action on the estimate). */
 #define MAX_WARNINGS 3
+#define MAX_RESTARTS_LOGGED 10
 
 typedef struct {
     Variables v; /* first: the variable table's offsets are into it */
     GyroObserver observer;
-    int32_t warnings_logged, reserved;
+    int32_t warnings_logged, restarts_logged;
 } ModelData;
 
 static GyroParams guess_of(const Variables *v) {
@@ -65,6 +67,7 @@ static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) 
                            msg, n))
         return GYRO_HOOK_ERROR;
     d->warnings_logged = 0;
+    d->restarts_logged = 0;
     publish(d);
     return GYRO_HOOK_OK;
 }
@@ -77,6 +80,7 @@ static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) 
     const double z1 = pair == 1 ? v->x_meas : v->vx_meas;
     const double z2 = pair == 1 ? v->y_meas : v->vy_meas;
     const int before = d->observer.status;
+    const double restarts = d->observer.refit.restarts;
     const int code = gyro_observer_step(&d->observer, v->ux, v->uy, z1, z2, h, msg, n);
     switch (code) {
     case GYRO_OBS_TOO_COARSE: return GYRO_HOOK_DISCARD; /* nothing changed */
@@ -96,6 +100,15 @@ static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) 
     default: break;
     }
     publish(d);
+    if (d->observer.refit.restarts > restarts && d->restarts_logged < MAX_RESTARTS_LOGGED) {
+        char text[GYRO_OBS_MESSAGE];
+        gyro_observer_restart_message(&d->observer, text, sizeof text);
+        d->restarts_logged++;
+        snprintf(msg, n, "GyroObserver: %s%s", text,
+                 d->restarts_logged == MAX_RESTARTS_LOGGED
+                     ? " (further restarts not logged)" : "");
+        return GYRO_HOOK_WARNING;
+    }
     if (code == GYRO_OBS_STEP_WARNING && before != 1 && d->warnings_logged < MAX_WARNINGS) {
         char warning[GYRO_OBS_MESSAGE];
         gyro_observer_warning(&d->observer, warning, sizeof warning);
