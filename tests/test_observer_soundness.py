@@ -17,6 +17,7 @@ from fmu_harness import Instance
 from gyro_fmu.core.observer import cholesky_ok
 from gyro_fmu.errors import GyroFmuError
 from gyro_fmu.estimation.observer import (
+    CoarseStepWarning,
     GyroStateObserver,
     ObserverDivergedError,
     ObserverStepError,
@@ -180,8 +181,33 @@ def test_a_step_too_coarse_for_the_resonance_is_refused_by_name_and_changes_noth
         obs.step(1e-8, 0.0, 0.0, 0.0, 200e-6)
     assert isinstance(ObserverStepError("x"), GyroFmuError)
     assert obs.get_state() == before
-    obs.step(1e-8, 0.0, 0.0, 0.0, 100e-6)
+    with pytest.warns(CoarseStepWarning, match="omega h = 2.31"):
+        obs.step(1e-8, 0.0, 0.0, 0.0, 100e-6)
     assert obs.status == 0
+
+
+def test_a_coarse_step_below_the_refusal_is_a_warning_once_per_step_size(models_dir):
+    """omega h above 1.2 (and up to the refusal at 2.5) is taken, with a warning naming the
+    step, omega h and the remedy: CoarseStepWarning once per step size in the library,
+    the same words in GyroObserver.fmu's log; 1.0 is no warning."""
+    import warnings
+
+    obs = GyroStateObserver(preset())
+    omega = max(math.sqrt(preset().kxx), math.sqrt(preset().kyy))
+    with pytest.warns(CoarseStepWarning, match=r"omega h = 1\.5, above 1\.2.*use a step <= "):
+        obs.step(1e-8, 0.0, 0.0, 0.0, 1.5 / omega)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        obs.step(1e-8, 0.0, 0.0, 0.0, 1.5 / omega)  # the same step size: said once
+        obs.step(1e-8, 0.0, 0.0, 0.0, 1.0 / omega)
+    assert obs.status == 0
+    inst = Instance(models_dir / "GyroObserver.fmu", "coarse")
+    omega = math.sqrt(max(inst.get(["kxx_0", "kyy_0"])))  # the FMU's own default guess
+    assert inst.step(1.5 / omega) == 0
+    assert inst.step(1.5 / omega) == 0
+    text = inst.messages()
+    assert text.count("is coarse for the observer") == 1 and "omega h = 1.5" in text, text
+    inst.close()
 
 
 def _far_noise_free_run(tuning: ObserverTuning) -> GyroStateObserver:

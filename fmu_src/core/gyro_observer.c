@@ -43,6 +43,10 @@ static const double PRIOR_FRACTION_MEASURED = 1.0;
  * (omega h 4.6) runs from 10 % off ended wrong with status 0; at 100 us (2.3) they
  * converged or were refused. */
 static const double OMEGA_H_MAX = 2.5;
+/* Warning above this omega h (US 2011/0314910's held step stays exact, but the samples
+ * resolve the resonance less and less: dampings and the tracking degrade long before the
+ * refusal, and the sigmas do not say so; issue "observer honest when the rate moves"). */
+static const double OMEGA_H_WARN = 1.2;
 /* Monitor. Corrections per block of the innovation tests (1 ms at the default 5 us). */
 static const int BLOCK = 200;
 /* Warning above the chi-square quantile of this normal quantile (p = 1e-4 per block). */
@@ -1149,6 +1153,18 @@ static int refusal(GyroObserver *o, double h, const char *const names[], const d
         return GYRO_OBS_TOO_COARSE;
     }
     return 0;
+}
+
+int gyro_observer_step_warning(const GyroObserver *o, double h, char *msg, size_t n) {
+    const double omega = dmax(o->wx, o->wy);
+    if (n) msg[0] = '\0';
+    if (!(omega * h > OMEGA_H_WARN && omega * h <= OMEGA_H_MAX)) return 0;
+    snprintf(msg, n, "communication step %.4g s is coarse for the observer: it samples the "
+             "gyro's guessed resonance (%.5g Hz) at omega h = %.3g, above %g, where the "
+             "estimates and their sigmas degrade well before the refusal at %g; use a step "
+             "<= %.3g s", h, omega / (2 * GYRO_PI), omega * h, OMEGA_H_WARN, OMEGA_H_MAX,
+             OMEGA_H_WARN / omega);
+    return 1;
 }
 
 /* Act on a monitor verdict after a step of h. */

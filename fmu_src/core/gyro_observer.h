@@ -172,6 +172,9 @@ void gyro_observer_rate_probabilities(const GyroObserver *o, double p[4]);
 /* The re-fit test's last restart in words (0 when it never restarted): what the FMU logs
  * at each restart, whatever the status. */
 int gyro_observer_restart_message(const GyroObserver *o, char *msg, size_t n);
+/* A step h that the observer takes but that is coarse for the guessed resonance (omega h
+ * above 1.2, up to the refusal at 2.5): 1 with msg naming the step and the remedy. */
+int gyro_observer_step_warning(const GyroObserver *o, double h, char *msg, size_t n);
 
 /* The warning of status 1 in words (0 when the status is not 1). */
 int gyro_observer_warning(const GyroObserver *o, char *msg, size_t n);

@@ -17,6 +17,7 @@ docs/observer-soundness.md.
 from __future__ import annotations
 
 import ctypes
+import warnings
 from dataclasses import asdict
 
 import numpy as np
@@ -26,10 +27,11 @@ from ..core.library import Params
 from ..model.measurement import UNKNOWNS, MeasuredPair
 from ..model.parameters import GyroParameters
 from . import observer_rate as rate
-from .observer_monitor import ObserverDivergedError, ObserverStepError
+from .observer_monitor import CoarseStepWarning, ObserverDivergedError, ObserverStepError
 from .observer_tuning import ObserverTuning
 
-__all__ = ["GyroStateObserver", "ObserverDivergedError", "ObserverStepError", "ObserverTuning"]
+__all__ = ["CoarseStepWarning", "GyroStateObserver", "ObserverDivergedError",
+           "ObserverStepError", "ObserverTuning"]
 
 _STATE_VERSION = 4
 _REFIT_ARRAYS = ("W", "g", "F", "shift", "move")  #: the re-fit test's array fields
@@ -200,6 +202,14 @@ class GyroStateObserver:
         code = self._lib.gyro_observer_step(self._ref, ux, uy, z1, z2, h, self._msg, 2048)
         if code:
             self._result(code)
+        if h != getattr(self, "_coarse_h", 0.0):
+            self._warn_if_coarse(h)
+
+    def _warn_if_coarse(self, h: float) -> None:
+        """CoarseStepWarning once per step size (GyroObserver.fmu logs the same words)."""
+        self._coarse_h = h
+        if self._lib.gyro_observer_step_warning(self._ref, float(h), self._msg, 2048):
+            warnings.warn(self._msg.value.decode(), CoarseStepWarning, stacklevel=3)
 
     def update(self, z1: float, z2: float, h: float) -> None:
         """Correct the estimate with the measured pair (z1, z2) at t (eq. 8).
@@ -213,6 +223,8 @@ class GyroStateObserver:
         """Propagate the estimate and its covariance to t + h (eq. 5), ux, uy (N) held."""
         self._result(self._lib.gyro_observer_predict(self._ref, float(ux), float(uy), float(h),
                                                      self._msg, 2048))
+        if h != getattr(self, "_coarse_h", 0.0):
+            self._warn_if_coarse(h)
 
     @property
     def warning(self) -> str | None:

@@ -35,6 +35,11 @@ class ObserverDivergedError(GyroFmuError):
     """
 
 
+class CoarseStepWarning(UserWarning):
+    """A step the observer takes that is coarse for the guessed resonance (omega h above
+    1.2, below the refusal at 2.5): the estimates and sigmas degrade (the core's words)."""
+
+
 class ObserverStepError(GyroFmuError, ValueError):
     """A communication step the observer cannot use (too coarse for the gyro's resonance);
     the observer is unchanged: a smaller step goes on (in the FMU: fmi2Discard)."""

@@ -21,6 +21,7 @@ typedef struct {
     Variables v; /* first: the variable table's offsets are into it */
     GyroObserver observer;
     int32_t warnings_logged, restarts_logged;
+    double coarse_h; /* the last step size warned of as coarse (0: none) */
 } ModelData;
 
 static GyroParams guess_of(const Variables *v) {
@@ -68,6 +69,7 @@ static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) 
         return GYRO_HOOK_ERROR;
     d->warnings_logged = 0;
     d->restarts_logged = 0;
+    d->coarse_h = 0.0;
     publish(d);
     return GYRO_HOOK_OK;
 }
@@ -107,6 +109,10 @@ static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) 
         snprintf(msg, n, "GyroObserver: %s%s", text,
                  d->restarts_logged == MAX_RESTARTS_LOGGED
                      ? " (further restarts not logged)" : "");
+        return GYRO_HOOK_WARNING;
+    }
+    if (h != d->coarse_h && gyro_observer_step_warning(&d->observer, h, msg, n)) {
+        d->coarse_h = h; /* once per step size */
         return GYRO_HOOK_WARNING;
     }
     if (code == GYRO_OBS_STEP_WARNING && before != 1 && d->warnings_logged < MAX_WARNINGS) {
