@@ -71,3 +71,40 @@ def test_the_parser_imports_no_subcommand_stack():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()
     assert out == "[]", out
+
+
+def test_the_run_report_says_what_was_run_and_judges_the_whole_tail(models_dir, tmp_path,
+                                                                     capsys):
+    """Every parameter overridden: no preset claimed. The observer's tuning beside the
+    FMU's defaults. Sigma as its RMS over the tail; a 1 % tolerance below it marked."""
+    from gyro_fmu.model.parameters import PRESETS
+
+    p = PRESETS["park-horowitz"]
+    sets = [a for n in ("kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m")
+            for a in ("--set", f"{n}={getattr(p, n) * 1.01!r}")]
+    out = tmp_path / "run"
+    assert main(["run", "--stop-time", "0.003", "--models", str(models_dir), "--out", str(out),
+                 "--noise", "1e-3", "--no-figures", *sets]) == 0
+    text = capsys.readouterr().out
+    assert "gyro: every parameter set by --set (no preset value used)" in text, text
+    assert "rate_model=1 (FMU default 0)" in text and "sigma_z1=" in text, text
+    assert "judged over the tail 2.4" in text, text
+    summary = json.loads((out / "summary.json").read_text())
+    om = summary["unknowns"]["Omega_z"]
+    assert om["tolerance_below_sigma"] and om["sigma_rms_tail"] > om["tolerance"]
+    assert "* tol is below the observer's own sigma for Omega_z" in text, text
+
+
+def test_convergence_is_judged_over_the_whole_tail():
+    """An error that comes within tolerance only in the tail's last samples (a sine's
+    tail at 10-15 %, within at the final sample) has not converged."""
+    import numpy as np
+
+    from gyro_fmu.estimation.metrics import convergence_time
+
+    t = np.linspace(0.0, 0.1, 1001)
+    err = np.where(t < 0.0999, 0.12, 0.001)
+    assert convergence_time(t, err, 0.01) == pytest.approx(0.0999)  # the old reading
+    assert convergence_time(t, err, 0.01, judged_from=0.08) is None
+    err = np.where(t < 0.05, 0.12, 0.001)
+    assert convergence_time(t, err, 0.01, judged_from=0.08) == pytest.approx(0.05)

@@ -1,5 +1,9 @@
 """How well the observer did: errors, RMS and convergence times for summary.json.
 
+Judged over the tail (the last 20 % of the run): convergence means within tolerance from
+a time before the tail starts to the end; sigma is reported as its RMS over the tail
+beside the last sample's.
+
 Tolerance rule ("within 1%"): 1% of |truth| for each parameter; where the truth
 is 0 (e.g. dyy of Table 1) an absolute 0.1 1/s for dampings; for Omega_z, whose
 truth may cross zero, 1% of the largest |Omega_z| of the run.
@@ -28,14 +32,18 @@ def tolerance(name: str, truth: np.ndarray) -> float:
     return RELATIVE_TOLERANCE * scale
 
 
-def convergence_time(time: np.ndarray, error: np.ndarray, tol: float) -> float | None:
-    """First time after which |error| stays within tol to the end; None if never."""
+def convergence_time(time: np.ndarray, error: np.ndarray, tol: float,
+                     judged_from: float | None = None) -> float | None:
+    """First time after which |error| stays within tol to the end; None if never, or if
+    that time is later than judged_from (the start of the judged tail: an error that only
+    comes within tol in the tail's last samples has not converged)."""
     outside = np.nonzero(~(np.abs(error) <= tol))[0]
     if outside.size == 0:
         return float(time[0])
     if outside[-1] == time.size - 1:
         return None
-    return float(time[outside[-1] + 1])
+    t = float(time[outside[-1] + 1])
+    return None if judged_from is not None and t > judged_from else t
 
 
 def summarize(
@@ -55,14 +63,20 @@ def summarize(
         tol = tolerance(name, true_series)
         scale = float(np.max(np.abs(true_series[last])))
         tail_err = float(np.max(np.abs(err[last])))
+        sigma_rms = float(np.sqrt(np.mean(sigmas[name][last] ** 2)))
         entry = {
             "truth_final": float(true_series[-1]),
             "estimate_final": float(estimates[name][-1]),
             "sigma_final": float(sigmas[name][-1]),
+            "sigma_rms_tail": sigma_rms,
             "tolerance": tol,
+            # the observer's own sigma sits at the Cramer-Rao bound (0.97-1.08 of it,
+            # docs/observer-soundness.md): a tolerance below it is luck, not a target
+            "tolerance_below_sigma": bool(tol < sigma_rms),
             "max_abs_error_tail": tail_err,
             "max_rel_error_tail": tail_err / scale if scale > 0 else None,
-            "converged_within_tolerance_at_s": convergence_time(time, err, tol),
+            "converged_within_tolerance_at_s": convergence_time(time, err, tol,
+                                                                float(time[last][0])),
             "error_over_sigma_rms_tail": _ratio_rms(err[last], sigmas[name][last]),
         }
         if name == "Omega_z":

@@ -245,18 +245,57 @@ def _cmd_design_drive(args: argparse.Namespace) -> int:
     return 0
 
 
+def _gyro_words(sc: dict) -> str:
+    """The parameters actually used: the preset, or which of them --set replaced."""
+    from ..model.parameters import PARAMETER_NAMES
+
+    overridden = [n for n in PARAMETER_NAMES if n in sc["overrides"]]
+    if len(overridden) == len(PARAMETER_NAMES):
+        return "gyro: every parameter set by --set (no preset value used)"
+    if overridden:
+        return f"gyro: preset {sc['preset']} with {', '.join(overridden)} set by --set"
+    return f"gyro: preset {sc['preset']}"
+
+
+def _tuning_words(summary: dict) -> str:
+    """The observer's tuning as run, and how it differs from GyroObserver.fmu's defaults."""
+    from ..estimation.observer_tuning import ObserverTuning
+
+    told = summary["scenario"]["observer_tuning"]
+    if not told:
+        return "observer: GyroObserver.fmu's defaults (noise estimated, adaptive rate model)"
+    default = vars(ObserverTuning())
+    said = ", ".join(f"{k}={v:.4g} (FMU default {default[k]:.4g})" for k, v in told.items())
+    return (f"observer: {said}, as a designer who knows them would set them; --tuning "
+            "NAME=VALUE sets others")
+
+
 def _print_summary(summary: dict) -> None:
     sc = summary["scenario"]
-    print(f"preset {sc['preset']}, rate {sc['rate']['text']} rad/s, "
+    print(f"{_gyro_words(sc)}; rate {sc['rate']['text']} rad/s, "
           f"{sc['stop_time'] * 1e3:g} ms at {sc['step'] * 1e6:g} us, "
           f"noise {sc['noise_relative_to_peak']:g} of peak, wall {summary['wall_time_s']:.2f} s")
+    print(_tuning_words(summary))
+    a, b = summary["tail_window_s"]
+    print(f"judged over the tail {a * 1e3:.4g}-{b * 1e3:.4g} ms: sigma is its RMS there; "
+          "converged = within tol from before the tail to the end")
     print(f"{'unknown':>8} {'truth':>13} {'estimate':>13} {'sigma':>10} "
-          f"{'max err tail':>12} {'tol':>9} {'conv. at':>9}")
+          f"{'max err tail':>12} {'tol':>10} {'conv. at':>9}")
+    below = []
     for name, u in summary["unknowns"].items():
         conv = u["converged_within_tolerance_at_s"]
+        mark = "*" if u["tolerance_below_sigma"] else " "
+        if mark == "*":
+            below.append(name)
         print(f"{name:>8} {u['truth_final']:13.6g} {u['estimate_final']:13.6g} "
-              f"{u['sigma_final']:10.3g} {u['max_abs_error_tail']:12.3g} {u['tolerance']:9.3g} "
-              f"{'never' if conv is None else f'{conv * 1e3:.2f} ms':>9}")
+              f"{u['sigma_rms_tail']:10.3g} {u['max_abs_error_tail']:12.3g} "
+              f"{u['tolerance']:9.3g}{mark} "
+              f"{'no' if conv is None else f'{conv * 1e3:.2f} ms':>9}")
+    if below:
+        print(f"* tol is below the observer's own sigma for {', '.join(below)}: the data "
+              "cannot pin it that closely (the sigma is near the Cramer-Rao bound, "
+              "docs/observer-soundness.md), so 'within tol' there is chance; run longer or "
+              "with less noise")
     if summary.get("interrupted"):
         print(f"INTERRUPTED at t = {summary['interrupted']['at_s']:.9g} s: every figure above "
               "is over the part simulated")
