@@ -3,6 +3,7 @@ user meets: is the reported sigma honest, and does status say when the answer is
 
     python benchmarks/observer_families.py [--gyros 8] [--seeds 4] [--noise 1e-5 1e-4]
                                            [--families constant step gm10 ...] [--bound]
+                                           [--ideal]
 
 Gyros (seeded draws, none a preset): x mode 2-20 kHz (log-uniform), y mode 1-15 % above
 or below it, Q 1e2-1e5 per axis (log-uniform), cross damping up to 10 % of
@@ -26,6 +27,9 @@ Per family and noise, over the samples after 20 ms (the judged window):
   end>4s   runs whose last sample is more than 4 sigma off with status 0 (target 0)
   flag     runs with a non-zero status at any sample in the window
   blind    step only: ms after the step with status 0 and |error| > 5 sigma (mean, max)
+  ideal    (--ideal) RMS error of a filter that knows the gyro, err/ideal the ratio: the
+           same FMU started at the true parameters with priors of 1e-9 (relative) on
+           them and told the noise; it still models the rate as the default does
   bound    (--bound) RMS of the posterior Cramer-Rao bound at 40, 60, 80, 100 ms for the
            first seed of each gyro (constant, sines, Gauss-Markov; the step has none), and
            err/bound over the same samples
@@ -152,10 +156,11 @@ class Run:
     t: np.ndarray
     bound: float | None = None
     bound_err: float | None = None
+    ideal_err: np.ndarray | None = None  # the ideal filter's Omega_hat - Omega_z
 
 
 def one_gyro(obs: ObserverFMU, g: int, p: GyroParameters, families, noises, seeds, n,
-             bound: bool) -> list[Run]:
+             bound: bool, ideal: bool = False) -> list[Run]:
     rng = np.random.default_rng(1000 + g)
     drive = TwoToneDrive()
     t = np.arange(n) * H
@@ -174,10 +179,16 @@ def one_gyro(obs: ObserverFMU, g: int, p: GyroParameters, families, noises, seed
             for noise in noises:
                 noise_rng = np.random.default_rng((g, seed, int(noise * 1e9)))
                 z = s[:, [0, 2]]
-                z = z + noise_rng.standard_normal(z.shape) * noise * np.abs(z).max(axis=0)
+                std = noise * np.abs(z).max(axis=0)
+                z = z + noise_rng.standard_normal(z.shape) * std
                 out = obs.run(guess, u, z)
                 run = Run(family, noise, g, seed, out[:, 0] - Omega[1:], out[:, 1],
                           out[:, 2].astype(int), t + H)
+                if ideal:
+                    known = {**{f"{k}_0": getattr(p, k) for k in PARAMETER_NAMES},
+                             "Omega_z_0": 0.0, "sigma0_k_rel": 1e-9, "sigma0_d_rel": 1e-9,
+                             "sigma0_m_rel": 1e-9, "sigma_z1": std[0], "sigma_z2": std[1]}
+                    run.ideal_err = obs.run(known, u, z)[:, 0] - Omega[1:]
                 if bound and seed == 0 and family != "step":
                     run.bound, run.bound_err = posterior_bound(p, scale, family, noise,
                                                                np.abs(s[:, [0, 2]]).max(axis=0),
@@ -221,6 +232,10 @@ def summarize(runs: list[Run]) -> dict:
         blind = [float(np.sum((r.t >= STEP_AT) & (r.status == 0)
                               & (np.abs(r.err) > 5 * r.sigma)) * H) for r in runs]
         out["blind_ms"] = (1e3 * float(np.mean(blind)), 1e3 * max(blind))
+    ideal = [r.ideal_err[r.t >= WINDOW_START] for r in runs if r.ideal_err is not None]
+    if ideal:
+        out["ideal"] = float(np.sqrt(np.mean(np.concatenate(ideal) ** 2)))
+        out["err/ideal"] = out["err"] / out["ideal"]
     bounds = [(r.bound, r.bound_err) for r in runs if r.bound is not None]
     if bounds:
         b, be = np.array(bounds).T
@@ -237,6 +252,8 @@ def main() -> int:
     ap.add_argument("--families", nargs="+", choices=FAMILIES, default=list(FAMILIES))
     ap.add_argument("--stop-time", type=float, default=0.1)
     ap.add_argument("--bound", action="store_true", help="the posterior bound (slow)")
+    ap.add_argument("--ideal", action="store_true",
+                    help="beside each run, a filter that knows the gyro and the noise")
     ap.add_argument("--gyro-seed", type=int, default=2026)
     args = ap.parse_args()
     n = round(args.stop_time / H)
@@ -252,7 +269,8 @@ def main() -> int:
     runs: list[Run] = []
     try:
         for g, p in enumerate(gyros):
-            runs += one_gyro(obs, g, p, args.families, args.noise, args.seeds, n, args.bound)
+            runs += one_gyro(obs, g, p, args.families, args.noise, args.seeds, n, args.bound,
+                             args.ideal)
     finally:
         obs.close()
     wall = time.perf_counter() - start
@@ -270,6 +288,8 @@ def main() -> int:
             extra = ""
             if "blind_ms" in s:
                 extra += f"blind {s['blind_ms'][0]:.2f} ms mean, {s['blind_ms'][1]:.2f} max "
+            if "ideal" in s:
+                extra += f"ideal {s['ideal']:.3g}, err/ideal {s['err/ideal']:.2f} "
             if "bound" in s:
                 extra += f"bound {s['bound']:.3g}, err/bound {s['err/bound']:.2f}"
             print(f"{family:<9} {noise:>6.0e} {s['runs']:>4} {s['err']:>9.3g} {s['sig']:>9.3g} "

@@ -335,15 +335,23 @@ static double correct_with(const GyroObserver *o, double *x, double P[NMAX][NMAX
     return nu0 * (s00 * nu0 + s01 * nu1) + nu1 * (s10 * nu0 + s11 * nu1);
 }
 
-/* Add one correction's innovations (of the combined prediction) to the monitor's block. */
-static void monitor_innovations(GyroObserver *o, const double nu[2], const double R[2]) {
+/* S = H P H' + R of the combined prediction as [a, b, d, det] (S = [[a, b], [b, d]]);
+ * 0 when it is not positive definite. */
+static int innovation_covariance(const GyroObserver *o, const double R[2], double S[4]) {
     const int i0 = o->i0, i1 = i0 + 2;
     const double g0 = o->hgain[0], g1 = o->hgain[1];
-    const double a = o->P[i0][i0] * g0 * g0 + R[0];
-    const double b_ = o->P[i0][i1] * g0 * g1;
-    const double d = o->P[i1][i1] * g1 * g1 + R[1];
-    const double det = a * d - b_ * b_;
-    if (!(det > 0.0 && a > 0.0)) return;
+    S[0] = o->P[i0][i0] * g0 * g0 + R[0];
+    S[1] = o->P[i0][i1] * g0 * g1;
+    S[2] = o->P[i1][i1] * g1 * g1 + R[1];
+    S[3] = S[0] * S[2] - S[1] * S[1];
+    return S[3] > 0.0 && S[0] > 0.0;
+}
+
+/* Add one correction's innovations (of the combined prediction) to the monitor's block. */
+static void monitor_innovations(GyroObserver *o, const double nu[2], const double R[2]) {
+    double S[4];
+    if (!innovation_covariance(o, R, S)) return;
+    const double a = S[0], b_ = S[1], d = S[2], det = S[3];
     GyroMonitor *m = &o->mon;
     m->nis += (d * nu[0] * nu[0] - 2.0 * b_ * nu[0] * nu[1] + a * nu[1] * nu[1]) / det;
     for (int j = 0; j < 2; j++) { /* lag-1 autocorrelation and power of each sequence */
@@ -361,12 +369,9 @@ static void monitor_innovations(GyroObserver *o, const double nu[2], const doubl
 static void refit_correct(GyroObserver *o, const double nu[2], const double R[2], double h) {
     const int i0 = o->i0, i1 = i0 + 2;
     const double g0 = o->hgain[0], g1 = o->hgain[1];
-    const double a = o->P[i0][i0] * g0 * g0 + R[0];
-    const double b_ = o->P[i0][i1] * g0 * g1;
-    const double d = o->P[i1][i1] * g1 * g1 + R[1];
-    const double det = a * d - b_ * b_;
-    if (!(det > 0.0 && a > 0.0)) return;
-    const double s00 = d / det, s01 = -b_ / det, s11 = a / det; /* S^-1 */
+    double S[4];
+    if (!innovation_covariance(o, R, S)) return;
+    const double s00 = S[2] / S[3], s01 = -S[1] / S[3], s11 = S[0] / S[3]; /* S^-1 */
     GyroRefit *r = &o->refit;
     const double lam = exp(-h / REFIT_TAU), lam2 = lam * lam;
     double psi[2][8], sp[2][8]; /* psi = H W; sp = S^-1 psi */

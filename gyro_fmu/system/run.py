@@ -101,6 +101,7 @@ def _run_into(sc: Scenario, out_dir: Path, models_dir: Path, fmus: Mapping[str, 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         validate_for_plant(sc.params)  # the growth-rate warning goes into summary.json
+        _warn_if_drive_far(sc)
         noise = absolute_noise(sc)
         start = time.perf_counter()
         try:
@@ -130,6 +131,21 @@ def _run_into(sc: Scenario, out_dir: Path, models_dir: Path, fmus: Mapping[str, 
     if figures:
         make_figures(result, sc.params, out_dir)
     return summary
+
+
+def _warn_if_drive_far(sc: Scenario) -> None:
+    """DriveFarFromModesWarning (into summary.json and the CLI's warnings) when the drive
+    loses more than half the information tones around the guessed modes would give."""
+    from ..estimation.excitation import DriveFarFromModesWarning, drive_warning
+
+    try:
+        guess = GyroParameters(**sc.initial_guess)
+        text = drive_warning(guess, sc.the_drive, float(sc.rate.Omega_z(0.0)), sc.step,
+                             sc.measured_pair)
+    except GyroFmuError:  # a guess the bound cannot use: the run says what is wrong
+        return
+    if text:
+        warnings.warn(text, DriveFarFromModesWarning, stacklevel=2)
 
 
 def write_or_rescue(write: Callable[[Path], None], path: Path) -> Path:
