@@ -29,7 +29,8 @@ Per family and noise, over the samples after 20 ms (the judged window):
   blind    step only: ms after the step with status 0 and |error| > 5 sigma (mean, max)
   ideal    (--ideal) RMS error of a filter that knows the gyro, err/ideal the ratio: the
            same FMU started at the true parameters with priors of 1e-9 (relative) on
-           them and told the noise; it still models the rate as the default does
+           them and told the noise; it still models the rate as the default does. For
+           the step also its blind time (the delay of a detector that knows the gyro)
   bound    (--bound) RMS of the posterior Cramer-Rao bound at 40, 60, 80, 100 ms for the
            first seed of each gyro (constant, sines, Gauss-Markov; the step has none), and
            err/bound over the same samples
@@ -157,6 +158,7 @@ class Run:
     bound: float | None = None
     bound_err: float | None = None
     ideal_err: np.ndarray | None = None  # the ideal filter's Omega_hat - Omega_z
+    ideal_blind: float | None = None  # step: its time with status 0 and error > 5 sigma
 
 
 def one_gyro(obs: ObserverFMU, g: int, p: GyroParameters, families, noises, seeds, n,
@@ -188,7 +190,12 @@ def one_gyro(obs: ObserverFMU, g: int, p: GyroParameters, families, noises, seed
                     known = {**{f"{k}_0": getattr(p, k) for k in PARAMETER_NAMES},
                              "Omega_z_0": 0.0, "sigma0_k_rel": 1e-9, "sigma0_d_rel": 1e-9,
                              "sigma0_m_rel": 1e-9, "sigma_z1": std[0], "sigma_z2": std[1]}
-                    run.ideal_err = obs.run(known, u, z)[:, 0] - Omega[1:]
+                    ideal_out = obs.run(known, u, z)
+                    run.ideal_err = ideal_out[:, 0] - Omega[1:]
+                    if family == "step":
+                        run.ideal_blind = float(np.sum(
+                            (run.t >= STEP_AT) & (ideal_out[:, 2] == 0)
+                            & (np.abs(run.ideal_err) > 5 * ideal_out[:, 1])) * H)
                 if bound and seed == 0 and family != "step":
                     run.bound, run.bound_err = posterior_bound(p, scale, family, noise,
                                                                np.abs(s[:, [0, 2]]).max(axis=0),
@@ -232,6 +239,9 @@ def summarize(runs: list[Run]) -> dict:
         blind = [float(np.sum((r.t >= STEP_AT) & (r.status == 0)
                               & (np.abs(r.err) > 5 * r.sigma)) * H) for r in runs]
         out["blind_ms"] = (1e3 * float(np.mean(blind)), 1e3 * max(blind))
+        ideal_blind = [r.ideal_blind for r in runs if r.ideal_blind is not None]
+        if ideal_blind:
+            out["ideal_blind_ms"] = (1e3 * float(np.mean(ideal_blind)), 1e3 * max(ideal_blind))
     ideal = [r.ideal_err[r.t >= WINDOW_START] for r in runs if r.ideal_err is not None]
     if ideal:
         out["ideal"] = float(np.sqrt(np.mean(np.concatenate(ideal) ** 2)))
@@ -288,6 +298,9 @@ def main() -> int:
             extra = ""
             if "blind_ms" in s:
                 extra += f"blind {s['blind_ms'][0]:.2f} ms mean, {s['blind_ms'][1]:.2f} max "
+            if "ideal_blind_ms" in s:
+                extra += (f"(ideal {s['ideal_blind_ms'][0]:.2f} mean, "
+                          f"{s['ideal_blind_ms'][1]:.2f} max) ")
             if "ideal" in s:
                 extra += f"ideal {s['ideal']:.3g}, err/ideal {s['err/ideal']:.2f} "
             if "bound" in s:
