@@ -46,6 +46,9 @@ I_BETA = 15
 I_CUBIC = slice(16, 20)
 I_FEEDTHROUGH = slice(20, 28)
 RESIDUAL_FEEDTHROUGH = ("E_xx", "E_xy", "E_yx", "E_yy")
+#: The name of each slot of x (complex gains as real and imaginary parts, _complex4).
+SLOT_NAMES = (CORE + tuple(f"{p}.{c}" for p in FORCER for c in ("re", "im")) + PICKOFF
+              + CUBIC + tuple(f"{p}.{c}" for p in RESIDUAL_FEEDTHROUGH for c in ("re", "im")))
 
 
 @dataclass
@@ -73,6 +76,11 @@ class SidebandFit:
     fit_feedthrough: bool
     rms_residual: float
     names: tuple[str, ...] = field(default=())
+    #: smallest / largest singular value of the column-normalized Jacobian at the optimum
+    #: (near 0: a direction of the parameters the records do not determine)
+    conditioning: float = 1.0
+    #: the fitted parameters that make up that direction, largest share first
+    weakest: tuple[str, ...] = field(default=())
 
     def sigma(self) -> np.ndarray:
         return np.sqrt(np.clip(np.diag(self.cov), 0.0, None))
@@ -253,8 +261,16 @@ def fit_sidebands(modes: list[ModeData], rho: complex, kappa: float, h: float,
     x = x0.copy()
     x[mask] = res.x
     names = CORE + FORCER + PICKOFF + CUBIC + (RESIDUAL_FEEDTHROUGH if fit_feedthrough else ())
+    # pinv above drops a direction the records do not determine, and the sigmas then
+    # look small: say how close to singular the fit is, and along what
+    norms = np.linalg.norm(res.jac, axis=0)
+    _, sv, vt = np.linalg.svd(res.jac / np.where(norms > 0, norms, 1.0), full_matrices=False)
+    free = [n for n, m in zip(SLOT_NAMES, mask, strict=True) if m]
+    order = np.argsort(-np.abs(vt[-1]))
+    weakest = tuple(free[i] for i in order[:2] if i < len(free))
     return SidebandFit(x, cov, omega_ref, rho, kappa, h, fit_feedthrough,
-                       math.sqrt(s2), names)
+                       math.sqrt(s2), names, float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,
+                       weakest)
 
 
 def closed_loop_rate(fit: SidebandFit, x: np.ndarray, Omega_z: float, omega_r: float,

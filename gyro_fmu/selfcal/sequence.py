@@ -370,6 +370,9 @@ def _calibrate(res: ResonatorParameters, cfg: SelfCalConfig, ff: FeedForward,
     result.pickoff_noise = noise_level
     result.misfit_ratio, problems = alarms.misfit_problems(
         result.rms_residual, noise_level, n, cfg.loops.amplitude)
+    phys = result.fit.physical()
+    problems += alarms.conditioning_problems(result.fit.conditioning, result.fit.weakest,
+                                             abs(phys["f_y"] - phys["f_x"]))
     if cfg.cubic:
         x = result.fit.x
         gamma = {(md.mode, kind): g for md in data if md.mode in (1, 2)
