@@ -93,6 +93,7 @@ _R, _L = POINTER(Resonator), POINTER(Loops)
 _MSG = [c_char_p, c_size_t]
 FUNCTIONS = {
     "gyro_resonator_problems": (c_int, [POINTER(ResonatorParams), *_MSG]),
+    "gyro_resonator_at_temperature": (c_int, [POINTER(ResonatorParams), _D, _P, *_MSG]),
     "gyro_resonator_system": (c_int, [POINTER(ResonatorParams), _D, _D, _P, _P, *_MSG]),
     "gyro_resonator_discretize": (c_int, [POINTER(ResonatorParams), _D, _D, _D, _P, _P, *_MSG]),
     "gyro_resonator_force_covariance": (c_int, [POINTER(ResonatorParams), _D, _D, _D, _P,

@@ -171,6 +171,21 @@ class ResonatorParameters:
         """The same instrument with every noise off: what a rate table's truth sees."""
         return replace(self, noise=0.0, m_modal=0.0, drive_noise=0.0)
 
+    def later(self, t: float) -> ResonatorParameters:
+        """The same instrument t seconds later on its temperature history (the ramp
+        temperature_rate continuing): temperature, f_x, f_y, Q_x, Q_y as the core's
+        gyro_resonator_at_temperature gives them after dT = temperature_rate * t, the
+        ramp going on from there. A calibration sequence runs each record from here, so
+        the warm-up runs through the whole sequence (docs/self-calibration.md)."""
+        dT = self.temperature_rate * t
+        if dT == 0.0:
+            return self
+        (kd, pk) = _out(4)
+        _call("gyro_resonator_at_temperature", _params(self), dT, pk)
+        wx, wy = math.sqrt(kd[0]), math.sqrt(kd[1])
+        return replace(self, temperature=self.temperature + dT, f_x=wx / (2 * math.pi),
+                       f_y=wy / (2 * math.pi), Q_x=wx / kd[2], Q_y=wy / kd[3])
+
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
 

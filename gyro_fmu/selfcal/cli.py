@@ -158,7 +158,10 @@ def _cmd_selfcal(args: argparse.Namespace) -> int:
           f"{s['relative_pickoff_gain']:.5f}, phase {s['relative_pickoff_phase_rad']:+.2e} rad")
     if args.compare_ratetable:
         ff = FeedForward(result.feedthrough, result.rho, result.feedthrough * 0)
-        table = rate_table(res.without_noise(), ff, cfg)
+        # the instrument as it was in the mode-1 record (the calibration's read-out),
+        # held there: the warm-up runs through the sequence, the table is static
+        at = replace(res.later(result.modes[0].t_center).without_noise(), temperature_rate=0.0)
+        table = rate_table(at, ff, cfg)
         d_bias = result.bias - table.bias
         d_sf = (result.scale_factor / table.scale_factor - 1) * 1e6
         print(f"  rate table (noise-free, same feed-forward): bias {table.bias:+.4e} rad/s, "

@@ -61,6 +61,15 @@ class ModeData:
     PO: np.ndarray  #: (n, 2) complex corrected pick-off phasors (Vpx, Vpy), V
     omega_osc: float  #: rad/s, mean oscillation frequency
     amplitude: float  #: V, primary pick-off amplitude
+    t_center: float = 0.0  #: s, the record's middle on the sequence's clock
+    #: 1/s, relative drift of the carrier over the record, d(omega_osc)/dt / omega_osc
+    #: (the temperature moving: tc_f dT/dt)
+    drift: float = 0.0
+    #: frequency scale of this record against the first: the resonator's f_x and f_y in
+    #: this record are (1 + shift) times the fitted ones (the temperature moved between
+    #: the records; sequence.carrier_shifts)
+    shift: float = 0.0
+    sigma_shift: float = 0.0  #: uncertainty of shift (the drift's change between records)
 
 
 @dataclass
@@ -109,9 +118,11 @@ def _complex4(v: np.ndarray) -> np.ndarray:
 
 
 def _dynamics(x: np.ndarray, omega: np.ndarray, omega_ref: float, kappa: float,
-              Omega_z: float | None = None) -> np.ndarray:
-    """M(omega) (n x 2 x 2) of eq. 1, the linear part; Omega_z overrides the fitted rate."""
-    wx, wy = omega_ref + x[0], omega_ref + x[1]
+              Omega_z: float | None = None, shift: float = 0.0) -> np.ndarray:
+    """M(omega) (n x 2 x 2) of eq. 1, the linear part; Omega_z overrides the fitted rate;
+    shift scales both mode frequencies by 1 + shift (a record at another temperature;
+    the dampings are held: a tc_Q is not modelled, docs/self-calibration.md)."""
+    wx, wy = (omega_ref + x[0]) * (1.0 + shift), (omega_ref + x[1]) * (1.0 + shift)
     dxx, dyy, dxy, kxy = x[2], x[3], x[4], x[5] * omega_ref
     Om = x[6] if Omega_z is None else Omega_z
     iw = 1j * omega
@@ -186,7 +197,7 @@ def predicted_pickoffs(x: np.ndarray, md: ModeData, omega_ref: float, rho: compl
     solves M_m q_m = B D_m zoh_m - Gamma[:, p] W_m, the cubic coefficients Gamma scaled
     so that a steady carrier sees Gamma q0 (transfer's carrier_cubic).
     """
-    M = _dynamics(x, md.omega, omega_ref, kappa)
+    M = _dynamics(x, md.omega, omega_ref, kappa, shift=md.shift)
     B = _complex4(x[7:15]) * (2 * omega_ref)
     F = np.einsum("ij,nj->ni", B, md.D) * zoh(md.omega, h)[:, None]
     g = _cubic(x, md.mode) if md.mode in (1, 2) else np.zeros((2, 2))
@@ -225,7 +236,7 @@ def initial_guess(modes: list[ModeData], plant_gain: float, q_nominal: float,
     nominal P B / (2 omega)."""
     by_mode = {md.mode: md for md in modes}
     w1 = by_mode[1].omega_osc if 1 in by_mode else modes[0].omega_osc
-    w2 = by_mode[2].omega_osc if 2 in by_mode else w1
+    w2 = by_mode[2].omega_osc / (1.0 + by_mode[2].shift) if 2 in by_mode else w1
     d = w1 / q_nominal
     x = np.zeros(28 if fit_feedthrough else 20)
     x[0], x[1], x[2], x[3] = 0.0, w2 - w1, d, d

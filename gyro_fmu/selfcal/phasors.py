@@ -24,14 +24,16 @@ class PhasorError(GyroFmuError, ValueError):
 
 
 def phasors(signal: np.ndarray, t0: float, h: float, omega_ref: float, spacing: float,
-            harmonics: np.ndarray) -> np.ndarray:
+            harmonics: np.ndarray, phase: np.ndarray | None = None) -> np.ndarray:
     """Complex phasors at omega_ref + j * 2 pi * spacing for each integer j in harmonics.
 
     signal: uniformly sampled from t0 with step h; its duration N h must hold a whole
     number of periods 1/spacing (the grid is then orthogonal over the record); two or
-    more periods give the Hann weight.
+    more periods give the Hann weight. phase (rad, one per sample): the reference's
+    slow departure from omega_ref t (the loops' own smoothed NCO phase: the carrier
+    drifting with the temperature), mixed down with the rest.
     """
-    return _Fit(signal, t0, h, omega_ref, spacing, harmonics).phasors
+    return _Fit(signal, t0, h, omega_ref, spacing, harmonics, phase).phasors
 
 
 def phasors_and_variances(signal: np.ndarray, t0: float, h: float, omega_ref: float,
@@ -62,7 +64,8 @@ class _Fit:
     """The weighted joint least-squares fit of phasors on a frequency grid."""
 
     def __init__(self, signal: np.ndarray, t0: float, h: float, omega_ref: float,
-                 spacing: float, harmonics: np.ndarray) -> None:
+                 spacing: float, harmonics: np.ndarray,
+                 phase: np.ndarray | None = None) -> None:
         n = len(signal)
         periods = n * h * spacing
         m = round(periods)
@@ -79,7 +82,8 @@ class _Fit:
         # its sidelobes fall as 1/k^3. With 1 bin per grid step the Hann normal equations
         # are nearly singular, so a rectangular (exactly orthogonal) weight is used.
         self.window = np.sin(math.pi * k / n) ** 2 if m >= 2 else np.ones(n)
-        z = signal * self.window * np.exp(-1j * omega_ref * (t0 + k * h))
+        arg = omega_ref * (t0 + k * h) + (0.0 if phase is None else phase)
+        z = signal * self.window * np.exp(-1j * arg)
         Z = np.fft.fft(z)
         rhs = Z[(self.harmonics * m) % n] * np.exp(-1j * self.harmonics * self.dw * t0)
         self.gram = self.gram_of(self.window)

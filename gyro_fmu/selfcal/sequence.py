@@ -152,7 +152,8 @@ class FeedForward:
 
 
 def measure_feedforward(res: ResonatorParameters, cfg: SelfCalConfig) -> FeedForward:
-    """Loops off: E from the drive tones, rho from the ring tones (both -/+ offsets)."""
+    """Loops off: E from the drive tones, rho from the ring tones (both -/+ offsets).
+    It runs first in the sequence, from t = 0 on res's temperature history."""
     lo = replace(cfg.loops, mode=0)
     h = cfg.step
     f0 = lo.f_nominal
@@ -195,14 +196,19 @@ def measure_feedforward(res: ResonatorParameters, cfg: SelfCalConfig) -> FeedFor
 
 
 def record_mode(res: ResonatorParameters, cfg: SelfCalConfig, mode: int,
-                ff: FeedForward) -> tuple[ModeData, CarrierRecord]:
-    """Run one mode with sidebands; return its phasors and the raw record."""
+                ff: FeedForward, t_start: float = 0.0) -> tuple[ModeData, CarrierRecord]:
+    """Run one mode with sidebands from t_start (s) on the sequence's clock (the
+    resonator's temperature history, ResonatorParameters.later); return its phasors
+    and the raw record."""
     lo = replace(cfg.loops, mode=mode, sideband_index=cfg.sideband_index,
                  sideband_spacing=cfg.sideband_spacing, sideband_first=1,
                  sideband_count=cfg.sideband_count, sideband_start=0.0,
                  ff_xx=ff.E[0, 0], ff_xy=ff.E[0, 1], ff_yx=ff.E[1, 0], ff_yy=ff.E[1, 1])
-    rec = simulate(res, lo, cfg, cfg.seed + mode, cfg.settle + cfg.record, cfg.settle)
-    return mode_phasors(rec, mode, ff, cfg), rec
+    rec = simulate(res.later(t_start), lo, cfg, cfg.seed + mode, cfg.settle + cfg.record,
+                   cfg.settle)
+    md = mode_phasors(rec, mode, ff, cfg)
+    md.t_center = t_start + cfg.settle + cfg.record / 2
+    return md, rec
 
 
 def simulate(res: ResonatorParameters, lo: LoopSettings, cfg: SelfCalConfig, seed: int,
@@ -226,18 +232,47 @@ def mode_phasors(rec: CarrierRecord, mode: int, ff: FeedForward,
     data = rec.data[:-1]
     cols = CarrierRecord(data, h)
     t0 = cols.time[0]
-    omega_osc = float(np.mean(cols["omega"]))
     # products up to 3 times the highest tone: the cubic's (a 0.1 Hz cubic shift left a
     # misfit of 2.9e-6 V with 2 times, 2.8e-7 with 3, 1.4e-7 with 4; noise-free)
     harm = np.arange(-3 * cfg.sideband_count, 3 * cfg.sideband_count + 1)
+    omega_osc, drift, slow = smoothed_nco_phase(cols["theta"], h, cfg.sideband_spacing,
+                                                3 * cfg.sideband_count)
     omega = omega_osc + harm * 2 * math.pi * cfg.sideband_spacing
-    ph = {n: phasors(cols[n], t0, h, omega_osc, cfg.sideband_spacing, harm)
+    ph = {n: phasors(cols[n], t0, h, omega_osc, cfg.sideband_spacing, harm, slow)
           for n in ("Vx", "Vy", "Vpx", "Vpy")}
     D = np.stack([ph["Vx"], ph["Vy"]], axis=1)
     PO = np.stack([ph["Vpx"], ph["Vpy"]], axis=1)
     PO = PO - np.einsum("ij,nj->ni", ff.E, D) * np.exp(-1j * omega * h)[:, None]
     amp = float(np.abs(PO[harm == 0, mode - 1][0]))
-    return ModeData(mode, omega, D, PO, omega_osc, amp)
+    return ModeData(mode, omega, D, PO, omega_osc, amp, drift=drift)
+
+
+def smoothed_nco_phase(theta: np.ndarray, h: float, spacing: float,
+                       tones: int) -> tuple[float, float, np.ndarray]:
+    """The loops' NCO phase over a record, smoothed: (omega at the record's middle,
+    rad/s; its relative drift d omega/dt / omega, 1/s; the phase's departure from
+    omega t, rad, one per sample).
+
+    Every channel is demodulated on this phase, so a carrier that follows the resonator
+    as the temperature moves stays on the grid (the seed: "the PLL frequency follows
+    oscillator frequency modulation caused by ... stiffness variations with temperature
+    ... so that demodulation yields the desired side band transfer functions
+    independent of oscillator frequency"). Smoothing: a cubic in time fitted together
+    with the tones at 1..tones times the spacing, which keep the sidebands' phase
+    modulation out of it; only the cubic's curvature is kept."""
+    phi = np.unwrap(theta)
+    n = len(phi)
+    half = 0.5 * (n - 1) * h
+    u = (np.arange(n) * h - half) / half
+    every = max(1, n // 20000)  # the phase is smooth: fit on a subsample (memory flat)
+    t = np.arange(0, n, every) * h
+    cols = [u[::every] ** p for p in range(4)]
+    for k in range(1, tones + 1):
+        cols += [np.cos(2 * math.pi * k * spacing * t), np.sin(2 * math.pi * k * spacing * t)]
+    coef, *_ = np.linalg.lstsq(np.stack(cols, axis=1), phi[::every], rcond=None)
+    omega = float(coef[1] / half)
+    drift = float(2.0 * coef[2] / half**2 / omega)
+    return omega, drift, coef[2] * u**2 + coef[3] * u**3
 
 
 @dataclass
@@ -268,6 +303,9 @@ class SelfCalResult:
     misfit_ratio: float = math.nan  #: rms residual / what the pick-off noise leaves
     pickoff_noise: float = math.nan  #: V per sample, estimated from the records
     cubic: bool = False  #: the cubic terms of eqs. 24-27 were fitted
+    #: the parts of the 1-sigmas from the shift between the records (carrier_shifts)
+    sigma_bias_shift: float = 0.0
+    sigma_scale_factor_shift: float = 0.0
 
     @property
     def sigma_sf_ppm(self) -> float:
@@ -284,6 +322,11 @@ class SelfCalResult:
             "sigma_scale_factor_V_per_rad_s": self.sigma_scale_factor,
             "sigma_bias_from_rho_rad_s": self.sigma_bias_rho,
             "sigma_scale_factor_from_rho_V_per_rad_s": self.sigma_scale_factor_rho,
+            "sigma_bias_from_carrier_shift_rad_s": self.sigma_bias_shift,
+            "sigma_scale_factor_from_carrier_shift_V_per_rad_s": self.sigma_scale_factor_shift,
+            "carrier_drift_per_s": [md.drift for md in self.modes],
+            "carrier_shift": [md.shift for md in self.modes],
+            "record_middle_s": [md.t_center for md in self.modes],
             "relative_pickoff_gain": abs(self.rho),
             "relative_pickoff_phase_rad": float(np.angle(self.rho)),
             "feedthrough_V_per_V": self.feedthrough.tolist(),
@@ -301,14 +344,15 @@ def self_calibrate(res: ResonatorParameters, cfg: SelfCalConfig | None = None) -
     cfg = cfg or SelfCalConfig()
     start = time.perf_counter()
     ff = measure_feedforward(res, cfg)
-    result, problems = _calibrate(res, cfg, ff, start)
+    clock = cfg.ff_duration + 0.1  # s, the sequence's time: the warm-up runs through it
+    result, problems, clock = _calibrate(res, cfg, ff, start, clock)
     used = cfg
     for _ in range(3 if cfg.auto_record else 0):  # sigma falls about as 1/sqrt(record)
         record = choose_record(result, used) if not problems else used.record
         if record <= used.record:
             break
         used = replace(used, record=record)
-        result, problems = _calibrate(res, used, ff, start)
+        result, problems, clock = _calibrate(res, used, ff, start, clock)
     if not problems:
         problems = alarms.uncertainty_problems(result.sigma_bias, result.sigma_sf_ppm,
                                                cfg.target_bias, cfg.target_sf_ppm,
@@ -343,11 +387,14 @@ def record_unit(spacing: float) -> float:
 
 
 def _calibrate(res: ResonatorParameters, cfg: SelfCalConfig, ff: FeedForward,
-               start: float) -> tuple[SelfCalResult | None, list[str]]:
-    """Record every mode, check its loops, fit; (result or None, problems)."""
+               start: float, clock: float = 0.0
+               ) -> tuple[SelfCalResult | None, list[str], float]:
+    """Record every mode from clock (s, the sequence's time), check its loops, fit;
+    (result or None, problems, the clock at the end)."""
     data, problems, noise = [], [], []
     for m in cfg.modes:
-        md, rec = record_mode(res, cfg, m, ff)
+        md, rec = record_mode(res, cfg, m, ff, clock)
+        clock += cfg.settle + cfg.record
         cols = CarrierRecord(rec.data[:-1], cfg.step)
         secondary = float(np.abs(md.PO[md.omega.size // 2, 2 - m])) if m in (1, 2) else 0.0
         problems += alarms.lock_problems(m, cols["phase_error"], cols["amplitude"],
@@ -357,16 +404,17 @@ def _calibrate(res: ResonatorParameters, cfg: SelfCalConfig, ff: FeedForward,
         noise += [alarms.pickoff_noise(cols[n], cfg.step, f_osc) ** 2 for n in ("Vpx", "Vpy")]
         data.append(md)
     if problems:  # no fit of records whose loops did not hold
-        return None, problems
+        return None, problems, clock
     noise_level = math.sqrt(float(np.mean(noise)))
     n = round(cfg.record / cfg.step)
+    carrier_shifts(data)
     try:
         with np.errstate(all="raise"):
             result = estimate(data, ff, cfg, start)
     except (np.linalg.LinAlgError, ValueError, ZeroDivisionError, FloatingPointError) as exc:
         return None, [f"the sideband fit failed numerically ({type(exc).__name__}: {exc}): "
                       "the records do not determine the model; check the loops lock "
-                      "(--loop) and raise the sideband index (--index)"]
+                      "(--loop) and raise the sideband index (--index)"], clock
     result.pickoff_noise = noise_level
     result.misfit_ratio, problems = alarms.misfit_problems(
         result.rms_residual, noise_level, n, cfg.loops.amplitude)
@@ -380,7 +428,7 @@ def _calibrate(res: ResonatorParameters, cfg: SelfCalConfig, ff: FeedForward,
         dxx, dyy = x[2], x[3]  # CORE: the dampings of each mode
         problems += alarms.cubic_problems(gamma, {1: dxx, 2: dyy}, {1: dyy, 2: dxx},
                                           result.fit.omega_ref)
-    return result, problems
+    return result, problems, clock
 
 
 def estimate(data: list[ModeData], ff: FeedForward, cfg: SelfCalConfig,
@@ -403,9 +451,40 @@ def estimate(data: list[ModeData], ff: FeedForward, cfg: SelfCalConfig,
         refit = fit_with(ff.rho + d_rho)
         moved.append(np.subtract(bias_and_scale_factor(refit, omega_r, amp), (bias, sf)))
     s_bias_rho, s_sf_rho = np.sqrt(np.sum(np.square(moved), axis=0)) if moved else (0.0, 0.0)
+    # the shift between records moved by its uncertainty, refitted (the temperature)
+    shifted = []
+    for i, md in enumerate(data):
+        if md.sigma_shift > 0.0:
+            moved_data = [replace(d, shift=d.shift + d.sigma_shift) if j == i else d
+                          for j, d in enumerate(data)]
+            refit = fit_sidebands(moved_data, ff.rho, cfg.kappa, cfg.step, lo.plant_gain,
+                                  lo.q_nominal, cfg.fit_feedthrough, cfg.fixed_rate, cfg.cubic)
+            shifted.append(np.subtract(bias_and_scale_factor(refit, omega_r, amp), (bias, sf)))
+    s_bias_t, s_sf_t = np.sqrt(np.sum(np.square(shifted), axis=0)) if shifted else (0.0, 0.0)
     wall = time.perf_counter() - start if start is not None else float("nan")
-    return SelfCalResult(bias, sf, math.hypot(s_bias, s_bias_rho), math.hypot(s_sf, s_sf_rho),
-                         float(s_bias_rho), float(s_sf_rho), fit.physical(), ff.rho, ff.E,
-                         omega_r, amp, fit.rms_residual, wall, fit, data,
-                         record=cfg.record, cubic=cfg.cubic)
+    result = SelfCalResult(bias, sf, math.hypot(s_bias, s_bias_rho, s_bias_t),
+                           math.hypot(s_sf, s_sf_rho, s_sf_t), float(s_bias_rho),
+                           float(s_sf_rho), fit.physical(), ff.rho, ff.E, omega_r, amp,
+                           fit.rms_residual, wall, fit, data, record=cfg.record,
+                           cubic=cfg.cubic)
+    result.sigma_bias_shift, result.sigma_scale_factor_shift = float(s_bias_t), float(s_sf_t)
+    return result
+
+
+def carrier_shifts(data: list[ModeData]) -> None:
+    """Set each record's frequency shift against the first (ModeData.shift), from the
+    carriers' own drift: the temperature moving between the records moves both modes
+    by tc_f dT, which the loops' PLL shows within each record as a relative drift r
+    (smoothed_nco_phase). Between the middles of two records the shift is the mean of
+    their drifts times the time between them (exact for a steady ramp, and for a rate
+    changing linearly); its uncertainty is half their difference times that time (the
+    bound for a rate that changes monotonically between the records), carried into
+    the 1-sigmas by a refit (estimate). The dampings are not shifted: the amplitude
+    loop's gain, their natural witness, moves 2 %/s in a record from its settling and
+    the sidebands (measured), far more than a tc_Q does."""
+    first = data[0]
+    for md in data[1:]:
+        dt = md.t_center - first.t_center
+        md.shift = math.expm1(0.5 * (first.drift + md.drift) * dt)
+        md.sigma_shift = 0.5 * abs(first.drift - md.drift) * abs(dt)
 

@@ -1,0 +1,63 @@
+"""A warm-up through the calibration sequence: the resonator's temperature runs on
+across the records (ResonatorParameters.later), every channel is demodulated on the
+loops' smoothed NCO phase, and the second record's frequencies are shifted by the
+carriers' own drift (sequence.carrier_shifts). Judged against a rate table of the
+instrument held at the temperature of the mode-1 record (the read-out's)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import pytest
+
+import gyro_fmu.selfcal.sequence as sequence
+from gyro_fmu.model.resonator import ResonatorParameters
+from gyro_fmu.selfcal.alarms import CalibrationRefusedError
+from gyro_fmu.selfcal.design import design
+from gyro_fmu.selfcal.ratetable import rate_table
+from gyro_fmu.selfcal.sequence import FeedForward, self_calibrate
+
+RAMP, TC_F = 0.05, -30e-6  # K/s (5x the fastest warm-up of the issue), 1/K
+WARMING = replace(ResonatorParameters(), temperature_rate=RAMP, tc_f=TC_F)
+SHORT = dict(settle=3.0, record=5.0, sideband_spacing=0.4, sideband_count=3,
+             ff_duration=0.2, auto_record=False)
+
+
+def test_the_temperature_history_is_the_cores() -> None:
+    later = WARMING.later(40.0)  # 2 K on: f by tc_f, Q by tc_Q (gyro_resonator_at_temperature)
+    assert later.temperature == pytest.approx(302.0, abs=1e-12)
+    assert later.f_x / WARMING.f_x - 1 == pytest.approx(2 * TC_F, rel=1e-9)
+    assert replace(WARMING, tc_Q=-1e-3).later(40.0).Q_y / WARMING.Q_y - 1 == pytest.approx(-2e-3)
+    assert later.temperature_rate == RAMP  # the ramp goes on from there
+    assert ResonatorParameters().later(40.0) == ResonatorParameters()  # no ramp, no change
+
+
+def test_a_warm_up_through_the_sequence_is_calibrated() -> None:
+    cfg = design(WARMING, **SHORT)
+    result = self_calibrate(WARMING, cfg)
+    m1, m2 = result.modes
+    assert m2.t_center - m1.t_center == pytest.approx(cfg.settle + cfg.record)
+    for md in result.modes:  # the PLL follows the resonator: tc_f dT/dt
+        assert md.drift == pytest.approx(TC_F * RAMP, rel=0.01)
+    assert m2.shift == pytest.approx(TC_F * RAMP * (m2.t_center - m1.t_center), rel=0.01)
+    ff = FeedForward(result.feedthrough, result.rho, result.feedthrough * 0)
+    held = replace(WARMING.later(m1.t_center).without_noise(), temperature_rate=0.0)
+    table = rate_table(held, ff, cfg)
+    # noise-free records: what is left is the model's, well inside the targets
+    assert abs(result.bias - table.bias) < 7.27e-5 / 100
+    assert abs(result.scale_factor / table.scale_factor - 1) * 1e6 < 100 / 20
+    assert result.misfit_ratio < 2.0
+
+
+def test_demodulating_at_a_fixed_frequency_is_refused(monkeypatch) -> None:
+    # what the demodulation on the NCO phase fixes: at the record's mean frequency the
+    # drifting carrier smears the sidebands and the misfit alarm refuses
+    smoothed = sequence.smoothed_nco_phase
+
+    def fixed(*args):
+        omega, drift, slow = smoothed(*args)
+        return omega, drift, slow * 0.0
+
+    monkeypatch.setattr(sequence, "smoothed_nco_phase", fixed)
+    with pytest.raises(CalibrationRefusedError, match="does not fit the sidebands"):
+        self_calibrate(WARMING, design(WARMING, **SHORT))
