@@ -61,3 +61,31 @@ def test_demodulating_at_a_fixed_frequency_is_refused(monkeypatch) -> None:
     monkeypatch.setattr(sequence, "smoothed_nco_phase", fixed)
     with pytest.raises(CalibrationRefusedError, match="does not fit the sidebands"):
         self_calibrate(WARMING, design(WARMING, **SHORT))
+
+
+def test_a_lot_with_a_warm_up_holds_the_same_resonators() -> None:
+    from gyro_fmu.selfcal.lot import LotModel
+
+    still, warming = LotModel().draw(5), LotModel(ramp_max=0.01).draw(5)
+    for a, b in zip(still, warming, strict=True):
+        assert "temperature_rate" not in a["instrument"]
+        rest = {k: v for k, v in b["instrument"].items() if k not in ("temperature_rate", "tc_f")}
+        assert rest == a["instrument"]
+        assert 0.0 <= b["instrument"]["temperature_rate"] <= 0.01
+        assert -40e-6 <= b["instrument"]["tc_f"] <= -20e-6
+
+
+def test_a_rate_that_changes_between_the_records_is_refused_by_name(monkeypatch) -> None:
+    # the simulator's history is a steady ramp: make the second record's carrier drift
+    # read 200 times the first's (a rate changing between the records; 20 times left
+    # a 1-sigma of 4.2e-6 rad/s from the shift, under a third of the target: calibrated)
+    smoothed, calls = sequence.smoothed_nco_phase, []
+
+    def changing(*args):
+        omega, drift, slow = smoothed(*args)
+        calls.append(drift)
+        return omega, drift * (200.0 if len(calls) % 2 == 0 else 1.0), slow
+
+    monkeypatch.setattr(sequence, "smoothed_nco_phase", changing)
+    with pytest.raises(CalibrationRefusedError, match="rate changed between the records"):
+        self_calibrate(WARMING, design(WARMING, **SHORT))

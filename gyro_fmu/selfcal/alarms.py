@@ -22,6 +22,10 @@ raises CalibrationRefusedError with all of them instead of returning a number.
   sigmas (an auto shift of 4.9 half-widths: 7.1 sigmas).
 - Conditioning and uncertainty: the fit's 1-sigmas must be finite and below the
   targets (the record length was chosen for them; see sequence.choose_record).
+- Carrier shift: the temperature moving between the records shifts mode 2's
+  frequencies; the shift comes from the carriers' drifts (sequence.carrier_shifts).
+  When the drift changes between the records, the shift is uncertain; if that alone
+  leaves more than a third of a target, the warm-up is named, not a longer record.
 """
 
 from __future__ import annotations
@@ -179,3 +183,17 @@ def uncertainty_problems(sigma_bias: float, sigma_sf_ppm: float, target_bias: fl
                    f"{target_sf_ppm:g} ppm after {record:g} s records: allow longer records "
                    "(--max-record S), lower the noise, or relax --target-sf-ppm")
     return out
+
+
+def carrier_shift_problems(drifts: list[float], sigma_bias_shift: float,
+                           sigma_sf_ppm_shift: float, target_bias: float,
+                           target_sf_ppm: float) -> list[str]:
+    """The shift between the records (from the carriers' drifts) must be known well
+    enough: its uncertainty alone may take at most a third of each target."""
+    if sigma_bias_shift <= target_bias / 3 and sigma_sf_ppm_shift <= target_sf_ppm / 3:
+        return []
+    return [f"the temperature's rate changed between the records (carrier drift "
+            f"{', '.join(f'{d:+.2e}' for d in drifts)} /s): the frequency shift between "
+            f"them is uncertain, which alone leaves 1-sigmas of {sigma_bias_shift:.2g} "
+            f"rad/s and {sigma_sf_ppm_shift:.3g} ppm (a third of the targets allowed): "
+            "calibrate once the warm-up has settled to a steady or no ramp"]

@@ -62,11 +62,17 @@ class LotModel:
     cubic_shift_max: float = 1.0e-2  #: Hz at 1 um, k3x, k3y log-uniform from 1/100 of it
     cross_cubic_shift_max: float = 1.0e-3  #: Hz at 1 um, k3xy, k3yx the same way
     noise_density: float = 1.25e-6  #: V/sqrt(Hz), white pick-off noise
+    #: K/s, warm-up through the whole calibration sequence, uniform in [0, this] (drawn
+    #: apart from the rest: a lot with and without a warm-up holds the same resonators)
+    ramp_max: float = 0.0
+    tc_f_min: float = -40e-6  #: 1/K, tc_f uniform in [tc_f_min, tc_f_max] (with a ramp)
+    tc_f_max: float = -20e-6
     seed: int = 2026
 
     def draw(self, n: int) -> list[dict[str, dict[str, float]]]:
         """n {"nominal": ResonatorParameters fields, "instrument": ...} pairs."""
         rng = np.random.default_rng(self.seed)
+        thermal = np.random.default_rng([self.seed, 1])
         out = []
         for _ in range(n):
             f = math.exp(rng.uniform(math.log(self.f_min), math.log(self.f_max)))
@@ -106,6 +112,10 @@ class LotModel:
                 # the cubic force is small and 10 samples per cycle resolve it
                 "cubic_substeps": 1,
             }
+            ramp, tc_f = thermal.uniform(0.0, 1.0), thermal.uniform(self.tc_f_min,
+                                                                     self.tc_f_max)
+            if self.ramp_max > 0.0:
+                instrument.update(temperature_rate=ramp * self.ramp_max, tc_f=tc_f)
             instrument["phi_x"] = max(instrument["phi_x"], 0.0)
             instrument["phi_y"] = max(instrument["phi_y"], 0.0)
             out.append({"nominal": nominal, "instrument": instrument})
@@ -130,7 +140,10 @@ def calibrate_one(i: int, drawn: dict, seed: int) -> dict:
             result, status, reason = exc.result, "refused", " | ".join(exc.problems)
         if result is not None:
             ff = FeedForward(result.feedthrough, result.rho, result.feedthrough * 0)
-            table = rate_table(instrument.without_noise(), ff, cfg)
+            # the instrument as it was in the mode-1 record (the read-out's), held there
+            held = replace(instrument.later(result.modes[0].t_center).without_noise(),
+                           temperature_rate=0.0)
+            table = rate_table(held, ff, cfg)
             d_bias = result.bias - table.bias
             d_sf = (result.scale_factor / table.scale_factor - 1) * 1e6
             s_sf = result.sigma_sf_ppm

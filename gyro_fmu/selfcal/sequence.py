@@ -418,6 +418,10 @@ def _calibrate(res: ResonatorParameters, cfg: SelfCalConfig, ff: FeedForward,
     result.pickoff_noise = noise_level
     result.misfit_ratio, problems = alarms.misfit_problems(
         result.rms_residual, noise_level, n, cfg.loops.amplitude)
+    problems += alarms.carrier_shift_problems(
+        [md.drift for md in data], result.sigma_bias_shift,
+        abs(result.sigma_scale_factor_shift / result.scale_factor) * 1e6, cfg.target_bias,
+        cfg.target_sf_ppm)
     phys = result.fit.physical()
     problems += alarms.conditioning_problems(result.fit.conditioning, result.fit.weakest,
                                              abs(phys["f_y"] - phys["f_x"]))
