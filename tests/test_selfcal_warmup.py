@@ -1,7 +1,7 @@
 """A warm-up through the calibration sequence: the resonator's temperature runs on
 across the records (ResonatorParameters.later), every channel is demodulated on the
 loops' smoothed NCO phase, and the second record's frequencies are shifted by the
-carriers' own drift (sequence.carrier_shifts). Judged against a rate table of the
+carriers' own drift (phasors.carrier_shifts). Judged against a rate table of the
 instrument held at the temperature of the mode-1 record (the read-out's)."""
 
 from __future__ import annotations

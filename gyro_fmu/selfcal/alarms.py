@@ -23,7 +23,7 @@ raises CalibrationRefusedError with all of them instead of returning a number.
 - Conditioning and uncertainty: the fit's 1-sigmas must be finite and below the
   targets (the record length was chosen for them; see sequence.choose_record).
 - Carrier shift: the temperature moving between the records shifts mode 2's
-  frequencies; the shift comes from the carriers' drifts (sequence.carrier_shifts).
+  frequencies; the shift comes from the carriers' drifts (phasors.carrier_shifts).
   When the drift changes between the records, the shift is uncertain; if that alone
   leaves more than a third of a target, the warm-up is named, not a longer record.
 """
@@ -187,13 +187,15 @@ def uncertainty_problems(sigma_bias: float, sigma_sf_ppm: float, target_bias: fl
 
 def carrier_shift_problems(drifts: list[float], sigma_bias_shift: float,
                            sigma_sf_ppm_shift: float, target_bias: float,
-                           target_sf_ppm: float) -> list[str]:
+                           target_sf_ppm: float, split_hz: float) -> list[str]:
     """The shift between the records (from the carriers' drifts) must be known well
     enough: its uncertainty alone may take at most a third of each target."""
     if sigma_bias_shift <= target_bias / 3 and sigma_sf_ppm_shift <= target_sf_ppm / 3:
         return []
-    return [f"the temperature's rate changed between the records (carrier drift "
-            f"{', '.join(f'{d:+.2e}' for d in drifts)} /s): the frequency shift between "
-            f"them is uncertain, which alone leaves 1-sigmas of {sigma_bias_shift:.2g} "
-            f"rad/s and {sigma_sf_ppm_shift:.3g} ppm (a third of the targets allowed): "
-            "calibrate once the warm-up has settled to a steady or no ramp"]
+    return [f"the frequency shift between the records is uncertain (carrier drifts "
+            f"{', '.join(f'{d:+.2e}' for d in drifts)} /s), which alone leaves 1-sigmas "
+            f"of {sigma_bias_shift:.2g} rad/s and {sigma_sf_ppm_shift:.3g} ppm (a third of "
+            "the targets allowed): either the temperature's rate changed between the "
+            "records (calibrate once the warm-up has settled to a steady or no ramp, or "
+            f"settle longer: --settle S) or the modes are so close (split {split_hz:.3g} "
+            "Hz) that even a noise-level drift matters (split them further: --set f_y=F)"]

@@ -67,7 +67,7 @@ class ModeData:
     drift: float = 0.0
     #: frequency scale of this record against the first: the resonator's f_x and f_y in
     #: this record are (1 + shift) times the fitted ones (the temperature moved between
-    #: the records; sequence.carrier_shifts)
+    #: the records; phasors.carrier_shifts)
     shift: float = 0.0
     sigma_shift: float = 0.0  #: uncertainty of shift (the drift's change between records)
 

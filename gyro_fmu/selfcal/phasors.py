@@ -1,22 +1,27 @@
 """Demodulation: phasors of a real record at known frequencies, by least squares.
 
 The seed extracts "amplitude and phase by least squares, since the sideband frequency
-is well known". Here the record is mixed down with a constant-frequency reference
-omega_ref (a constant reference keeps drive and pick-off phasors related by the
-resonator's transfer function exactly, which a jittering PLL phase would not) and the
-phasors c_j of s(t) = Re(sum_j c_j exp(i (omega_ref + j dw) t)) are fitted jointly
-with a Hann weight, which suppresses the image at -2 omega_ref and anything off the
-grid. The weighted normal equations are built with two FFTs, so a 10 s record at
-40 kHz takes milliseconds.
+is well known". Here the record is mixed down with a reference at omega_ref plus the
+loops' smoothed NCO phase (smoothed_nco_phase: smooth, so drive and pick-off phasors
+stay related by the resonator's transfer function, which a jittering PLL phase would
+not keep) and the phasors c_j of s(t) = Re(sum_j c_j exp(i (omega_ref + j dw) t)) are
+fitted jointly with a Hann weight, which suppresses the image at -2 omega_ref and
+anything off the grid. The weighted normal equations are built with two FFTs, so a
+10 s record at 40 kHz takes milliseconds. carrier_shifts turns the carriers' drifts
+into each record's frequency shift against the first.
 """
 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import GyroFmuError
+
+if TYPE_CHECKING:
+    from .estimator import ModeData
 
 
 class PhasorError(GyroFmuError, ValueError):
@@ -94,3 +99,50 @@ class _Fit:
         W = np.fft.fft(weight)
         diff = self.harmonics[None, :] - self.harmonics[:, None]  # l - j
         return np.conj(W[(diff * self.m) % self.n]) * np.exp(1j * diff * self.dw * self.t0)
+
+
+def smoothed_nco_phase(theta: np.ndarray, h: float, spacing: float,
+                       tones: int) -> tuple[float, float, np.ndarray]:
+    """The loops' NCO phase over a record, smoothed: (omega at the record's middle,
+    rad/s; its relative drift d omega/dt / omega, 1/s; the phase's departure from
+    omega t, rad, one per sample).
+
+    Every channel is demodulated on this phase, so a carrier that follows the resonator
+    as the temperature moves stays on the grid (the seed: "the PLL frequency follows
+    oscillator frequency modulation caused by ... stiffness variations with temperature
+    ... so that demodulation yields the desired side band transfer functions
+    independent of oscillator frequency"). Smoothing: a cubic in time fitted together
+    with the tones at 1..tones times the spacing, which keep the sidebands' phase
+    modulation out of it; only the cubic's curvature is kept."""
+    phi = np.unwrap(theta)
+    n = len(phi)
+    half = 0.5 * (n - 1) * h
+    u = (np.arange(n) * h - half) / half
+    every = max(1, n // 20000)  # the phase is smooth: fit on a subsample (memory flat)
+    t = np.arange(0, n, every) * h
+    cols = [u[::every] ** p for p in range(4)]
+    for k in range(1, tones + 1):
+        cols += [np.cos(2 * math.pi * k * spacing * t), np.sin(2 * math.pi * k * spacing * t)]
+    coef, *_ = np.linalg.lstsq(np.stack(cols, axis=1), phi[::every], rcond=None)
+    omega = float(coef[1] / half)
+    drift = float(2.0 * coef[2] / half**2 / omega)
+    return omega, drift, coef[2] * u**2 + coef[3] * u**3
+
+
+def carrier_shifts(data: list[ModeData]) -> None:
+    """Set each record's frequency shift against the first (ModeData.shift), from the
+    carriers' own drift: the temperature moving between the records moves both modes
+    by tc_f dT, which the loops' PLL shows within each record as a relative drift r
+    (smoothed_nco_phase). Between the middles of two records the shift is the mean of
+    their drifts times the time between them (exact for a steady ramp, and for a rate
+    changing linearly); its uncertainty is half their difference times that time (the
+    bound for a rate that changes monotonically between the records), carried into
+    the 1-sigmas by a refit (estimate). The dampings are not shifted: the amplitude
+    loop's gain, their natural witness, moves 2 %/s in a record from its settling and
+    the sidebands (measured), far more than a tc_Q does."""
+    first = data[0]
+    for md in data[1:]:
+        dt = md.t_center - first.t_center
+        md.shift = math.expm1(0.5 * (first.drift + md.drift) * dt)
+        md.sigma_shift = 0.5 * abs(first.drift - md.drift) * abs(dt)
+

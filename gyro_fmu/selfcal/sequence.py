@@ -36,7 +36,7 @@ from .estimator import (
     fit_sidebands,
 )
 from .inprocess import DEFAULT_STEP, MAX_STEPS, CarrierRecord, CarrierSimulation
-from .phasors import phasors, phasors_and_variances
+from .phasors import carrier_shifts, phasors, phasors_and_variances, smoothed_nco_phase
 
 
 @dataclass(frozen=True)
@@ -247,34 +247,6 @@ def mode_phasors(rec: CarrierRecord, mode: int, ff: FeedForward,
     return ModeData(mode, omega, D, PO, omega_osc, amp, drift=drift)
 
 
-def smoothed_nco_phase(theta: np.ndarray, h: float, spacing: float,
-                       tones: int) -> tuple[float, float, np.ndarray]:
-    """The loops' NCO phase over a record, smoothed: (omega at the record's middle,
-    rad/s; its relative drift d omega/dt / omega, 1/s; the phase's departure from
-    omega t, rad, one per sample).
-
-    Every channel is demodulated on this phase, so a carrier that follows the resonator
-    as the temperature moves stays on the grid (the seed: "the PLL frequency follows
-    oscillator frequency modulation caused by ... stiffness variations with temperature
-    ... so that demodulation yields the desired side band transfer functions
-    independent of oscillator frequency"). Smoothing: a cubic in time fitted together
-    with the tones at 1..tones times the spacing, which keep the sidebands' phase
-    modulation out of it; only the cubic's curvature is kept."""
-    phi = np.unwrap(theta)
-    n = len(phi)
-    half = 0.5 * (n - 1) * h
-    u = (np.arange(n) * h - half) / half
-    every = max(1, n // 20000)  # the phase is smooth: fit on a subsample (memory flat)
-    t = np.arange(0, n, every) * h
-    cols = [u[::every] ** p for p in range(4)]
-    for k in range(1, tones + 1):
-        cols += [np.cos(2 * math.pi * k * spacing * t), np.sin(2 * math.pi * k * spacing * t)]
-    coef, *_ = np.linalg.lstsq(np.stack(cols, axis=1), phi[::every], rcond=None)
-    omega = float(coef[1] / half)
-    drift = float(2.0 * coef[2] / half**2 / omega)
-    return omega, drift, coef[2] * u**2 + coef[3] * u**3
-
-
 @dataclass
 class SelfCalResult:
     """Everything the calibration found, with 1-sigma uncertainties.
@@ -303,7 +275,7 @@ class SelfCalResult:
     misfit_ratio: float = math.nan  #: rms residual / what the pick-off noise leaves
     pickoff_noise: float = math.nan  #: V per sample, estimated from the records
     cubic: bool = False  #: the cubic terms of eqs. 24-27 were fitted
-    #: the parts of the 1-sigmas from the shift between the records (carrier_shifts)
+    #: the parts of the 1-sigmas from the shift between the records (phasors.carrier_shifts)
     sigma_bias_shift: float = 0.0
     sigma_scale_factor_shift: float = 0.0
 
@@ -418,13 +390,14 @@ def _calibrate(res: ResonatorParameters, cfg: SelfCalConfig, ff: FeedForward,
     result.pickoff_noise = noise_level
     result.misfit_ratio, problems = alarms.misfit_problems(
         result.rms_residual, noise_level, n, cfg.loops.amplitude)
-    problems += alarms.carrier_shift_problems(
+    phys = result.fit.physical()
+    split = abs(phys["f_y"] - phys["f_x"])
+    singular = alarms.conditioning_problems(result.fit.conditioning, result.fit.weakest,
+                                            split)
+    problems += singular or alarms.carrier_shift_problems(  # a singular fit: no shift
         [md.drift for md in data], result.sigma_bias_shift,
         abs(result.sigma_scale_factor_shift / result.scale_factor) * 1e6, cfg.target_bias,
-        cfg.target_sf_ppm)
-    phys = result.fit.physical()
-    problems += alarms.conditioning_problems(result.fit.conditioning, result.fit.weakest,
-                                             abs(phys["f_y"] - phys["f_x"]))
+        cfg.target_sf_ppm, split)
     if cfg.cubic:
         x = result.fit.x
         gamma = {(md.mode, kind): g for md in data if md.mode in (1, 2)
@@ -473,22 +446,3 @@ def estimate(data: list[ModeData], ff: FeedForward, cfg: SelfCalConfig,
                            cubic=cfg.cubic)
     result.sigma_bias_shift, result.sigma_scale_factor_shift = float(s_bias_t), float(s_sf_t)
     return result
-
-
-def carrier_shifts(data: list[ModeData]) -> None:
-    """Set each record's frequency shift against the first (ModeData.shift), from the
-    carriers' own drift: the temperature moving between the records moves both modes
-    by tc_f dT, which the loops' PLL shows within each record as a relative drift r
-    (smoothed_nco_phase). Between the middles of two records the shift is the mean of
-    their drifts times the time between them (exact for a steady ramp, and for a rate
-    changing linearly); its uncertainty is half their difference times that time (the
-    bound for a rate that changes monotonically between the records), carried into
-    the 1-sigmas by a refit (estimate). The dampings are not shifted: the amplitude
-    loop's gain, their natural witness, moves 2 %/s in a record from its settling and
-    the sidebands (measured), far more than a tc_Q does."""
-    first = data[0]
-    for md in data[1:]:
-        dt = md.t_center - first.t_center
-        md.shift = math.expm1(0.5 * (first.drift + md.drift) * dt)
-        md.sigma_shift = 0.5 * abs(first.drift - md.drift) * abs(dt)
-
