@@ -145,4 +145,3 @@ def carrier_shifts(data: list[ModeData]) -> None:
         dt = md.t_center - first.t_center
         md.shift = math.expm1(0.5 * (first.drift + md.drift) * dt)
         md.sigma_shift = 0.5 * abs(first.drift - md.drift) * abs(dt)
-

@@ -414,8 +414,8 @@ def estimate(data: list[ModeData], ff: FeedForward, cfg: SelfCalConfig,
     bias and scale factor of the mode-1 read-out."""
     lo = cfg.loops
 
-    def fit_with(rho: complex) -> SidebandFit:
-        return fit_sidebands(data, rho, cfg.kappa, cfg.step, lo.plant_gain, lo.q_nominal,
+    def fit_with(rho: complex, records: list[ModeData] = data) -> SidebandFit:
+        return fit_sidebands(records, rho, cfg.kappa, cfg.step, lo.plant_gain, lo.q_nominal,
                              cfg.fit_feedthrough, cfg.fixed_rate, cfg.cubic)
 
     fit = fit_with(ff.rho)
@@ -434,8 +434,7 @@ def estimate(data: list[ModeData], ff: FeedForward, cfg: SelfCalConfig,
         if md.sigma_shift > 0.0:
             moved_data = [replace(d, shift=d.shift + d.sigma_shift) if j == i else d
                           for j, d in enumerate(data)]
-            refit = fit_sidebands(moved_data, ff.rho, cfg.kappa, cfg.step, lo.plant_gain,
-                                  lo.q_nominal, cfg.fit_feedthrough, cfg.fixed_rate, cfg.cubic)
+            refit = fit_with(ff.rho, moved_data)
             shifted.append(np.subtract(bias_and_scale_factor(refit, omega_r, amp), (bias, sf)))
     s_bias_t, s_sf_t = np.sqrt(np.sum(np.square(shifted), axis=0)) if shifted else (0.0, 0.0)
     wall = time.perf_counter() - start if start is not None else float("nan")
