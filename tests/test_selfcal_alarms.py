@@ -73,15 +73,19 @@ def test_a_calibration_that_cannot_be_trusted_is_refused(resonator, loops, expec
 def test_matched_modes_are_refused_not_calibrated_wrong() -> None:
     """f_x = f_y: the fit's Jacobian is singular (relative singular value 5e-10-1.5e-8)
     and it used to land 1.8e-4 rad/s off the rate table with a 1-sigma of 5e-9, exit 0.
-    Now refused by name; a split of 1e-4 Hz (1.07e-5) calibrates."""
+    Now refused by name, and so is 1e-5 Hz; a split of 1e-4 Hz (4.3e-6 with these
+    records) calibrates."""
     from gyro_fmu.selfcal.alarms import CONDITIONING_LIMIT
 
     with pytest.raises(CalibrationRefusedError, match="cannot determine") as refused:
         self_calibrate(replace(TRUE, f_x=4000.0, f_y=4000.0), design(TRUE, **SHORT))
     assert refused.value.result.fit.conditioning < CONDITIONING_LIMIT
     assert all("--" in p for p in refused.value.problems)
+    # 1e-5 Hz: conditioning ~1.1e-6, landed 10 sigma off under the old limit of 1e-7
+    with pytest.raises(CalibrationRefusedError, match="cannot determine"):
+        self_calibrate(replace(TRUE, f_x=4000.0, f_y=4000.00001), design(TRUE, **SHORT))
     result = self_calibrate(replace(TRUE, f_x=4000.0, f_y=4000.0001), design(TRUE, **SHORT))
-    assert result.fit.conditioning > 10 * CONDITIONING_LIMIT
+    assert result.fit.conditioning > 1.5 * CONDITIONING_LIMIT  # 4.3e-6 with these records
 
 
 def test_a_numerical_failure_is_a_named_refusal(monkeypatch) -> None:

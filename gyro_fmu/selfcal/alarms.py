@@ -148,8 +148,10 @@ def cubic_problems(gamma: dict[tuple[int, str], float], d_primary: dict[int, flo
 #: accepted. Measured with the default resonator and f_x = 4000 Hz: f_y - f_x = 0 gives
 #: 5e-10-1.5e-8 (the fit lands 1.8e-4 rad/s off with a 1-sigma of 5e-9: the pseudo-inverse
 #: dropped the direction), 1e-4 Hz gives 1.07e-5 and 1e-3 Hz 1.07e-4 (both agree with the
-#: rate table, with honest sigmas of 5.5e-6 and 3.8e-7 rad/s).
-CONDITIONING_LIMIT = 1e-7
+#: rate table, with honest sigmas of 5.5e-6 and 3.8e-7 rad/s). 1e-5 Hz gives about 1.1e-6
+#: and passed a limit of 1e-7, landing 2.43e-5 rad/s off with a 1-sigma of 2.3e-6 (10
+#: sigma), so the limit sits at 2e-6, below the 4.3e-6 of 1e-4 Hz with short records.
+CONDITIONING_LIMIT = 2e-6
 
 
 def conditioning_problems(conditioning: float, weakest: tuple[str, ...],
