@@ -111,17 +111,20 @@ def pickoff_noise(signal: np.ndarray, h: float, f_carrier: float) -> float:
     return math.sqrt(float(np.median(band)) / (float(window @ window) * math.log(2.0)))
 
 
-def misfit_problems(rms_residual: float, noise: float, n_samples: int,
-                    amplitude: float) -> tuple[float, list[str]]:
-    """(misfit ratio, problems): the fit's rms residual against what noise leaves."""
-    expected = math.hypot(math.sqrt(3.0 * noise**2 / n_samples), MODEL_FLOOR * amplitude)
-    ratio = rms_residual / expected
+def misfit_problems(fit) -> tuple[float, list[str]]:
+    """(misfit ratio, problems): sqrt(chi^2 / dof) of the eq. 19 fit weighted by its
+    noise model (estimator.NoiseModel: white pick-off noise, fitted force noise, the
+    model floor); the rms residual is quoted beside it."""
+    ratio = fit.misfit
     if not ratio <= MISFIT_LIMIT:
+        force = ", ".join(f"{f:.2g}" for f in fit.noise.force) if fit.noise else "none"
         return ratio, [
-            f"the eq. 19 model does not fit the sidebands: rms residual {rms_residual:.2g} V "
-            f"is {ratio:.3g} times what the pick-off noise leaves ({expected:.2g} V, limit "
-            f"{MISFIT_LIMIT:g}x): an imperfection the model lacks (cubic or cross-cubic "
-            "stiffness: lower the drive --loop amplitude=V; force noise; the temperature "
+            f"the eq. 19 model does not fit the sidebands: its residuals (rms "
+            f"{fit.rms_residual:.2g} V) are {ratio:.3g} times what the noise model "
+            f"leaves (white pick-off noise, force noise {force} fitted, floor "
+            f"{fit.noise.floor if fit.noise else math.nan:.2g} V; limit {MISFIT_LIMIT:g}x): "
+            "an imperfection the model lacks (cubic or cross-cubic "
+            "stiffness: lower the drive --loop amplitude=V; the temperature "
             "moving during the record: let it settle), or loops still settling (--settle)"]
     return ratio, []
 
@@ -176,14 +179,16 @@ def uncertainty_problems(sigma_bias: float, sigma_sf_ppm: float, target_bias: fl
         return ["the sideband fit is ill-conditioned (non-finite uncertainty): raise the "
                 "sideband index (--index) or check the forcer gains"]
     out = []
-    if sigma_bias > target_bias:
-        out.append(f"bias 1-sigma {sigma_bias:.2g} rad/s is above the target "
-                   f"{target_bias:.2g} after {record:g} s records: allow longer records "
-                   "(--max-record S), lower the noise, or relax --target-bias")
-    if sigma_sf_ppm > target_sf_ppm:
-        out.append(f"scale-factor 1-sigma {sigma_sf_ppm:.3g} ppm is above the target "
-                   f"{target_sf_ppm:g} ppm after {record:g} s records: allow longer records "
-                   "(--max-record S), lower the noise, or relax --target-sf-ppm")
+    # the 1-sigmas fall as 1 / sqrt(record): the length that would reach each target
+    for name, sigma, target, unit, option in (
+            ("bias", sigma_bias, target_bias, " rad/s", "--target-bias"),
+            ("scale-factor", sigma_sf_ppm, target_sf_ppm, " ppm", "--target-sf-ppm")):
+        if sigma > target:
+            need = record * (sigma / target) ** 2
+            out.append(f"{name} 1-sigma {sigma:.3g}{unit} is above the target "
+                       f"{target:.3g}{unit} after {record:g} s records (records of about "
+                       f"{need:.3g} s would reach it): allow longer records "
+                       f"(--max-record S), lower the noise, or relax {option}")
     return out
 
 

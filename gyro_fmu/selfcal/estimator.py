@@ -24,10 +24,10 @@ kappa is the one number taken from the factory (seed: assumed constant after it)
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.optimize import least_squares
+from scipy.optimize import least_squares, nnls
 
 #: Names of the fitted parameters, in vector order (SI: rad/s, 1/s, V/V).
 CORE = ("dw_x", "dw_y", "dxx", "dyy", "dxy", "kxy_over_w", "Omega_z")
@@ -70,6 +70,11 @@ class ModeData:
     #: the records; phasors.carrier_shifts)
     shift: float = 0.0
     sigma_shift: float = 0.0  #: uncertainty of shift (the drift's change between records)
+    #: rad/s, the FFT bins between the grid's tones (phasors.off_grid), and the drive
+    #: and corrected pick-off content there (k x 2 each, rectangular phasors): noise
+    off_omega: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    off_D: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), complex))
+    off_PO: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), complex))
 
 
 @dataclass
@@ -90,6 +95,10 @@ class SidebandFit:
     conditioning: float = 1.0
     #: the fitted parameters that make up that direction, largest share first
     weakest: tuple[str, ...] = field(default=())
+    noise: NoiseModel | None = None  #: the residuals' variance the fit was weighted by
+    #: sqrt(chi^2 / dof) of the weighted fit: near 1 when the model and the noise model
+    #: hold (nan for an unweighted fit)
+    misfit: float = math.nan
 
     def sigma(self) -> np.ndarray:
         return np.sqrt(np.clip(np.diag(self.cov), 0.0, None))
@@ -218,7 +227,9 @@ def cubic_phasors(md: ModeData, rho: complex) -> np.ndarray:
     return w[2 * c: 2 * c + n] / abs(q[c]) ** 2
 
 
-def _residuals(free, x_full, mask, modes, omega_ref, rho, kappa, h, fit_ff):
+def _residuals(free, x_full, mask, modes, omega_ref, rho, kappa, h, fit_ff, scale=None):
+    """Real and imaginary parts of PO - H D over every record, bin and channel, each
+    divided by its noise's standard deviation per component when scale is given."""
     x = x_full.copy()
     x[mask] = free
     out = []
@@ -226,7 +237,82 @@ def _residuals(free, x_full, mask, modes, omega_ref, rho, kappa, h, fit_ff):
         r = md.PO - predicted_pickoffs(x, md, omega_ref, rho, kappa, h, fit_ff)
         out.append(r.ravel())
     r = np.concatenate(out)
+    if scale is not None:
+        r = r / scale
     return np.concatenate([r.real, r.imag])
+
+
+def force_gains(x: np.ndarray, modes: list[ModeData], omega_ref: float, rho: complex,
+                kappa: float) -> np.ndarray:
+    """|C M^-1|^2 of each record, bin and channel for a force on x and on y (n x 2), in
+    the order of _residuals: how a white force noise reaches each residual of eq. 19.
+    The residual PO - H D is the force noise through the open-loop plant plus the
+    pick-off noise, whatever the loops fed back into D (D is the drive applied)."""
+    out = []
+    for md in modes:
+        M = _dynamics(x, md.omega, omega_ref, kappa, shift=md.shift)
+        G = _sense(np.linalg.inv(M), x, rho)  # n x 2 (channel) x 2 (force axis)
+        out.append(np.abs(G.reshape(-1, 2)) ** 2)
+    return np.concatenate(out)
+
+
+@dataclass
+class NoiseModel:
+    """The variance of each residual of eq. 19 (one complex phasor of one record's bin
+    and channel): white pick-off noise, a white force on each axis through the
+    open-loop plant, and a model-error floor,
+
+        v = white[record, channel] + sum_k |C M^-1|^2_k force[k] + floor^2   (V^2).
+
+    white comes from each record's spectrum above the carrier (alarms.pickoff_noise),
+    floor is fixed, force (thermomechanical and drive noise, in the fit's units) is
+    measured between the grid's tones (off_grid_force_noise), never from the residuals
+    it judges: a model error left at the tones stays visible in the misfit."""
+
+    white: np.ndarray  #: (records, 2) V^2, phasor variance of each pick-off's white noise
+    floor: float  #: V, model-error floor of a noise-free fit
+    force: np.ndarray = field(default_factory=lambda: np.zeros(2))  #: measured, per axis
+    measured: bool = False  #: force has been measured (a refit keeps it)
+
+    def variance(self, gains: np.ndarray, n_bins: list[int]) -> np.ndarray:
+        white = np.concatenate([np.tile(w, n) for w, n in zip(self.white, n_bins,
+                                                              strict=True)])
+        return white + gains @ self.force + self.floor**2
+
+
+#: E|c|^2 of a Hann phasor on the grid over E|2 Y / n|^2 of a rectangular FFT bin for
+#: the same locally white noise (6 s^2 / n against 4 s^2 / n; phasors.off_grid)
+HANN_OVER_RECT = 1.5
+
+
+def off_grid_force_noise(x: np.ndarray, modes: list[ModeData], omega_ref: float,
+                         rho: complex, kappa: float, h: float, fit_feedthrough: bool,
+                         noise: NoiseModel) -> np.ndarray:
+    """Force noise (2,) >= 0 from the eq. 19 residual between the grid's tones
+    (ModeData.off_*: noise only), PO - H D with H of x, whose variance the NoiseModel
+    predicts; iteratively reweighted non-negative least squares on |r|^2 (exponential:
+    its spread is its mean). Records without such bins (one FFT bin per grid step)
+    add nothing; with none at all the force is 0."""
+    rows, targets = [], []
+    for i, md in enumerate(modes):
+        if md.off_omega.size == 0:
+            continue
+        off = ModeData(0, md.off_omega, md.off_D, md.off_PO, md.omega_osc, md.amplitude,
+                       shift=md.shift)
+        r = off.PO - predicted_pickoffs(x, off, omega_ref, rho, kappa, h, fit_feedthrough)
+        rows.append(force_gains(x, [off], omega_ref, rho, kappa))
+        targets.append(HANN_OVER_RECT * np.abs(r.ravel()) ** 2
+                       - np.tile(noise.white[i], md.off_omega.size))
+    if not rows:
+        return np.zeros(2)
+    A, y = np.concatenate(rows), np.concatenate(targets)
+    white = np.concatenate([np.tile(noise.white[i], md.off_omega.size)
+                            for i, md in enumerate(modes) if md.off_omega.size])
+    force = np.zeros(2)
+    for _ in range(4):
+        spread = white + A @ force + noise.floor**2
+        force, _ = nnls(A / spread[:, None], y / spread)
+    return force
 
 
 def initial_guess(modes: list[ModeData], plant_gain: float, q_nominal: float,
@@ -246,13 +332,18 @@ def initial_guess(modes: list[ModeData], plant_gain: float, q_nominal: float,
 
 def fit_sidebands(modes: list[ModeData], rho: complex, kappa: float, h: float,
                   plant_gain: float, q_nominal: float, fit_feedthrough: bool = True,
-                  fixed_rate: float | None = None, cubic: bool = False) -> SidebandFit:
+                  fixed_rate: float | None = None, cubic: bool = False,
+                  noise: NoiseModel | None = None) -> SidebandFit:
     """Minimise eq. 19 over the parameters; covariance from the Jacobian at the optimum.
 
     fixed_rate: hold Omega_z at this value instead of fitting it (what a calibration
     without mode reversal must assume; the earth-rate study uses it).
     cubic: also fit the cubic terms at the operating amplitude (CUBIC); otherwise they
     are held at 0 (the seed: "if the hardware indicates their inclusion").
+    noise: weight each residual by its variance (NoiseModel; its force noise measured
+    between the tones with the model of the fit before, twice); the misfit is then
+    sqrt(chi^2 / dof) of the weighted fit. A noise model already measured (a refit:
+    fit.noise) is used as given. Without one, the fit is unweighted.
     """
     omega_ref, x0 = initial_guess(modes, plant_gain, q_nominal, fit_feedthrough)
     mask = np.ones(x0.size, bool)
@@ -262,15 +353,36 @@ def fit_sidebands(modes: list[ModeData], rho: complex, kappa: float, h: float,
     if fixed_rate is not None:
         x0[6] = fixed_rate
         mask[6] = False
+    n_bins = [len(md.omega) for md in modes]  # bins of each record (2 channels each)
     args = (x0, mask, modes, omega_ref, rho, kappa, h, fit_feedthrough)
-    res = least_squares(_residuals, x0[mask], args=args, method="lm", x_scale="jac",
-                        xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=20000)
+
+    def solve(start: np.ndarray, scale: np.ndarray | None):
+        return least_squares(_residuals, start, args=(*args, scale), method="lm",
+                             x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15,
+                             max_nfev=20000)
+
+    res = solve(x0[mask], None)
+    scale = None
+    for _ in range(2 if noise is not None else 0):
+        x = x0.copy()
+        x[mask] = res.x
+        measure = not noise.measured
+        if measure:  # from the fit before (the unweighted one first)
+            noise = replace(noise, force=off_grid_force_noise(
+                x, modes, omega_ref, rho, kappa, h, fit_feedthrough, noise), measured=True)
+        gains = force_gains(x, modes, omega_ref, rho, kappa)
+        scale = np.sqrt(0.5 * noise.variance(gains, n_bins))
+        res = solve(res.x, scale)
+        if not measure:
+            break
     n, p = res.fun.size, res.x.size
     s2 = float(res.fun @ res.fun) / max(n - p, 1)
     cov = np.zeros((x0.size, x0.size))
     cov[np.ix_(mask, mask)] = s2 * np.linalg.pinv(res.jac.T @ res.jac)
     x = x0.copy()
     x[mask] = res.x
+    unweighted = res.fun if scale is None else res.fun * np.concatenate([scale, scale])
+    rms = math.sqrt(float(unweighted @ unweighted) / max(n - p, 1))
     names = CORE + FORCER + PICKOFF + CUBIC + (RESIDUAL_FEEDTHROUGH if fit_feedthrough else ())
     # pinv above drops a direction the records do not determine, and the sigmas then
     # look small: say how close to singular the fit is, and along what
@@ -280,8 +392,8 @@ def fit_sidebands(modes: list[ModeData], rho: complex, kappa: float, h: float,
     order = np.argsort(-np.abs(vt[-1]))
     weakest = tuple(free[i] for i in order[:2] if i < len(free))
     return SidebandFit(x, cov, omega_ref, rho, kappa, h, fit_feedthrough,
-                       math.sqrt(s2), names, float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,
-                       weakest)
+                       rms, names, float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0,
+                       weakest, noise, math.sqrt(s2) if noise is not None else math.nan)
 
 
 def closed_loop_rate(fit: SidebandFit, x: np.ndarray, Omega_z: float, omega_r: float,

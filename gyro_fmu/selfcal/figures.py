@@ -9,7 +9,7 @@ import numpy as np
 
 from ..outputs import save_figure
 from .estimator import transfer
-from .sequence import SelfCalResult
+from .result import SelfCalResult
 
 
 def sideband_figure(result: SelfCalResult, path: Path) -> Path:

@@ -6,10 +6,10 @@ growing as f^2 so the same voltages hold 1 V of pick-off) and the *instrument*
 built from it (frequency and Q off the design, mode split, Q mismatch, cross damping
 and stiffness, forcer misalignments, pick-off gain, phase and non-orthogonality,
 feed-through, cubic and cross-cubic stiffness (either sign), pick-off noise of a
-given density). The loops and the step are designed from the nominal
-(design.design); the instrument is calibrated (sequence.self_calibrate) and its
-noise-free rate table taken with the same feed-forward (ratetable.rate_table), as
-`gyro-fmu selfcal --compare-ratetable` does.
+given density; optionally a warm-up and thermomechanical force noise). The loops and
+the step are designed from the nominal (design.design); the instrument is calibrated
+(sequence.self_calibrate) and its noise-free rate table taken with the same
+feed-forward (ratetable.rate_table), as `gyro-fmu selfcal --compare-ratetable` does.
 
 Every resonator is one row: `good` (calibrated, within the targets of the table),
 `refused` (an alarm stopped it: its reasons; the untrusted answer and the table
@@ -67,12 +67,17 @@ class LotModel:
     ramp_max: float = 0.0
     tc_f_min: float = -40e-6  #: 1/K, tc_f uniform in [tc_f_min, tc_f_max] (with a ramp)
     tc_f_max: float = -20e-6
+    #: kg, modal mass of the thermomechanical force noise at 300 K, log-uniform in
+    #: [m_modal_min, m_modal_max] (0: none; drawn apart, like the warm-up)
+    m_modal_min: float = 0.0
+    m_modal_max: float = 0.0
     seed: int = 2026
 
     def draw(self, n: int) -> list[dict[str, dict[str, float]]]:
         """n {"nominal": ResonatorParameters fields, "instrument": ...} pairs."""
         rng = np.random.default_rng(self.seed)
         thermal = np.random.default_rng([self.seed, 1])
+        brownian = np.random.default_rng([self.seed, 2])
         out = []
         for _ in range(n):
             f = math.exp(rng.uniform(math.log(self.f_min), math.log(self.f_max)))
@@ -116,6 +121,11 @@ class LotModel:
                                                                      self.tc_f_max)
             if self.ramp_max > 0.0:
                 instrument.update(temperature_rate=ramp * self.ramp_max, tc_f=tc_f)
+            mass = brownian.uniform(0.0, 1.0)
+            if self.m_modal_max > 0.0:
+                low, high = math.log(self.m_modal_min or self.m_modal_max), \
+                    math.log(self.m_modal_max)
+                instrument.update(m_modal=math.exp(low + mass * (high - low)))
             instrument["phi_x"] = max(instrument["phi_x"], 0.0)
             instrument["phi_y"] = max(instrument["phi_y"], 0.0)
             out.append({"nominal": nominal, "instrument": instrument})

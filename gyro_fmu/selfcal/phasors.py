@@ -101,6 +101,39 @@ class _Fit:
         return np.conj(W[(diff * self.m) % self.n]) * np.exp(1j * diff * self.dw * self.t0)
 
 
+def off_grid(signal: np.ndarray, t0: float, h: float, omega_ref: float, spacing: float,
+             harmonics: np.ndarray, c: np.ndarray, phase: np.ndarray | None = None
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """The record's content between the grid's tones: (harmonic number of each FFT bin
+    between -max and +max harmonics that is not on the grid, fractional; its rectangular
+    phasor 2 Y_b / n). The fitted tones c (phasors() on the same grid and phase) are
+    exactly periodic in the record, so they leave nothing in these bins once their
+    image at -2 omega_ref is removed: what is left is noise (the pick-offs', and the
+    force noise and the loops' response to it), for NoiseModel. A white noise of
+    variance s^2 per sample gives E|2 Y_b / n|^2 = 4 s^2 / n. Empty for fewer than 2
+    FFT bins per grid step."""
+    n = len(signal)
+    m = round(n * h * spacing)
+    harmonics = np.asarray(harmonics, dtype=int)
+    if m < 2:
+        return np.zeros(0), np.zeros(0, complex)
+    dw = 2 * math.pi * spacing
+    tones = np.zeros(n, complex)  # j dw t_k = 2 pi j m k / n + j dw t0
+    tones[(harmonics * m) % n] = c * np.exp(1j * harmonics * dw * t0)
+    P = np.fft.ifft(tones) * n  # sum_j c_j exp(i j dw t)
+    e = np.exp(-1j * (omega_ref * (t0 + np.arange(n) * h) + (0.0 if phase is None else phase)))
+    Y = np.fft.fft(signal * e - 0.5 * np.conj(P) * e * e)
+    bins = np.arange(harmonics.min() * m, harmonics.max() * m + 1)
+    bins = bins[bins % m != 0]
+    return bins / m, 2.0 * Y[bins % n] / n
+
+
+def white_phasor_variance(n: int, periods: int) -> float:
+    """E|c_j|^2 of a phasor (phasors()) per unit variance of white noise on the n
+    samples: 4 sum(w^2) / sum(w)^2 for the window the fit uses (6 / n for Hann)."""
+    return 6.0 / n if periods >= 2 else 4.0 / n
+
+
 def smoothed_nco_phase(theta: np.ndarray, h: float, spacing: float,
                        tones: int) -> tuple[float, float, np.ndarray]:
     """The loops' NCO phase over a record, smoothed: (omega at the record's middle,

@@ -29,6 +29,7 @@ from ..options import SEED_MAX
 from . import alarms
 from .estimator import (
     ModeData,
+    NoiseModel,
     SidebandFit,
     bias_and_scale_factor,
     bias_and_scale_factor_sigma,
@@ -36,7 +37,15 @@ from .estimator import (
     fit_sidebands,
 )
 from .inprocess import DEFAULT_STEP, MAX_STEPS, CarrierRecord, CarrierSimulation
-from .phasors import carrier_shifts, phasors, phasors_and_variances, smoothed_nco_phase
+from .phasors import (
+    carrier_shifts,
+    off_grid,
+    phasors,
+    phasors_and_variances,
+    smoothed_nco_phase,
+    white_phasor_variance,
+)
+from .result import SelfCalResult
 
 
 @dataclass(frozen=True)
@@ -238,74 +247,23 @@ def mode_phasors(rec: CarrierRecord, mode: int, ff: FeedForward,
     omega_osc, drift, slow = smoothed_nco_phase(cols["theta"], h, cfg.sideband_spacing,
                                                 3 * cfg.sideband_count)
     omega = omega_osc + harm * 2 * math.pi * cfg.sideband_spacing
+    names = ("Vx", "Vy", "Vpx", "Vpy")
     ph = {n: phasors(cols[n], t0, h, omega_osc, cfg.sideband_spacing, harm, slow)
-          for n in ("Vx", "Vy", "Vpx", "Vpy")}
-    D = np.stack([ph["Vx"], ph["Vy"]], axis=1)
-    PO = np.stack([ph["Vpx"], ph["Vpy"]], axis=1)
-    PO = PO - np.einsum("ij,nj->ni", ff.E, D) * np.exp(-1j * omega * h)[:, None]
+          for n in names}
+    off = {n: off_grid(cols[n], t0, h, omega_osc, cfg.sideband_spacing, harm, ph[n], slow)
+           for n in names}  # the noise between the tones (NoiseModel)
+    off_omega = omega_osc + off["Vx"][0] * 2 * math.pi * cfg.sideband_spacing
+
+    def corrected(ph: dict, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        D = np.stack([ph["Vx"], ph["Vy"]], axis=1)
+        PO = np.stack([ph["Vpx"], ph["Vpy"]], axis=1)
+        return D, PO - np.einsum("ij,nj->ni", ff.E, D) * np.exp(-1j * w * h)[:, None]
+
+    D, PO = corrected(ph, omega)
+    off_D, off_PO = corrected({n: v for n, (_, v) in off.items()}, off_omega)
     amp = float(np.abs(PO[harm == 0, mode - 1][0]))
-    return ModeData(mode, omega, D, PO, omega_osc, amp, drift=drift)
-
-
-@dataclass
-class SelfCalResult:
-    """Everything the calibration found, with 1-sigma uncertainties.
-
-    sigma_bias and sigma_scale_factor are the totals: the sideband fit's own (delta
-    method) and rho's (step 1's measurement error carried through a refit), which
-    are independent; the *_rho fields give rho's part alone.
-    """
-
-    bias: float  #: rad/s
-    scale_factor: float  #: V/(rad/s)
-    sigma_bias: float
-    sigma_scale_factor: float
-    sigma_bias_rho: float
-    sigma_scale_factor_rho: float
-    physical: dict[str, float]
-    rho: complex
-    feedthrough: np.ndarray
-    omega_r: float  #: rad/s, mode-1 oscillation frequency
-    amplitude: float
-    rms_residual: float
-    wall_time: float
-    fit: SidebandFit
-    modes: list[ModeData]
-    record: float = math.nan  #: s, length of each sideband record used
-    misfit_ratio: float = math.nan  #: rms residual / what the pick-off noise leaves
-    pickoff_noise: float = math.nan  #: V per sample, estimated from the records
-    cubic: bool = False  #: the cubic terms of eqs. 24-27 were fitted
-    #: the parts of the 1-sigmas from the shift between the records (phasors.carrier_shifts)
-    sigma_bias_shift: float = 0.0
-    sigma_scale_factor_shift: float = 0.0
-
-    @property
-    def sigma_sf_ppm(self) -> float:
-        """1-sigma of the scale factor relative to it, ppm."""
-        return abs(self.sigma_scale_factor / self.scale_factor) * 1e6
-
-    def summary(self) -> dict:
-        return {
-            "record_s": self.record, "misfit_ratio": self.misfit_ratio,
-            "cubic_terms_fitted": self.cubic,
-            "pickoff_noise_estimate_V": self.pickoff_noise,
-            "bias_rad_s": self.bias, "sigma_bias_rad_s": self.sigma_bias,
-            "scale_factor_V_per_rad_s": self.scale_factor,
-            "sigma_scale_factor_V_per_rad_s": self.sigma_scale_factor,
-            "sigma_bias_from_rho_rad_s": self.sigma_bias_rho,
-            "sigma_scale_factor_from_rho_V_per_rad_s": self.sigma_scale_factor_rho,
-            "sigma_bias_from_carrier_shift_rad_s": self.sigma_bias_shift,
-            "sigma_scale_factor_from_carrier_shift_V_per_rad_s": self.sigma_scale_factor_shift,
-            "carrier_drift_per_s": [md.drift for md in self.modes],
-            "carrier_shift": [md.shift for md in self.modes],
-            "record_middle_s": [md.t_center for md in self.modes],
-            "relative_pickoff_gain": abs(self.rho),
-            "relative_pickoff_phase_rad": float(np.angle(self.rho)),
-            "feedthrough_V_per_V": self.feedthrough.tolist(),
-            "oscillation_frequency_Hz": self.omega_r / (2 * math.pi),
-            "rms_residual_V": self.rms_residual, "wall_time_s": self.wall_time,
-            **self.physical,
-        }
+    return ModeData(mode, omega, D, PO, omega_osc, amp, drift=drift, off_omega=off_omega,
+                    off_D=off_D, off_PO=off_PO)
 
 
 def self_calibrate(res: ResonatorParameters, cfg: SelfCalConfig | None = None) -> SelfCalResult:
@@ -379,17 +337,19 @@ def _calibrate(res: ResonatorParameters, cfg: SelfCalConfig, ff: FeedForward,
         return None, problems, clock
     noise_level = math.sqrt(float(np.mean(noise)))
     n = round(cfg.record / cfg.step)
+    per_phasor = white_phasor_variance(n, round(cfg.record * cfg.sideband_spacing))
+    model = NoiseModel(np.reshape(noise, (-1, 2)) * per_phasor,
+                       alarms.MODEL_FLOOR * cfg.loops.amplitude)
     carrier_shifts(data)
     try:
         with np.errstate(all="raise"):
-            result = estimate(data, ff, cfg, start)
+            result = estimate(data, ff, cfg, start, model)
     except (np.linalg.LinAlgError, ValueError, ZeroDivisionError, FloatingPointError) as exc:
         return None, [f"the sideband fit failed numerically ({type(exc).__name__}: {exc}): "
                       "the records do not determine the model; check the loops lock "
                       "(--loop) and raise the sideband index (--index)"], clock
     result.pickoff_noise = noise_level
-    result.misfit_ratio, problems = alarms.misfit_problems(
-        result.rms_residual, noise_level, n, cfg.loops.amplitude)
+    result.misfit_ratio, problems = alarms.misfit_problems(result.fit)
     phys = result.fit.physical()
     split = abs(phys["f_y"] - phys["f_x"])
     singular = alarms.conditioning_problems(result.fit.conditioning, result.fit.weakest,
@@ -409,16 +369,18 @@ def _calibrate(res: ResonatorParameters, cfg: SelfCalConfig, ff: FeedForward,
 
 
 def estimate(data: list[ModeData], ff: FeedForward, cfg: SelfCalConfig,
-             start: float | None = None) -> SelfCalResult:
-    """Step 4: fit eq. 19 (with the cubic terms of eqs. 24-27 if cfg.cubic) and compute
-    bias and scale factor of the mode-1 read-out."""
+             start: float | None = None, noise: NoiseModel | None = None) -> SelfCalResult:
+    """Step 4: fit eq. 19 (with the cubic terms of eqs. 24-27 if cfg.cubic), weighted by
+    the noise model when given (its force noise fitted), and compute bias and scale
+    factor of the mode-1 read-out; the refits for rho and the shift keep its weights."""
     lo = cfg.loops
 
     def fit_with(rho: complex, records: list[ModeData] = data) -> SidebandFit:
         return fit_sidebands(records, rho, cfg.kappa, cfg.step, lo.plant_gain, lo.q_nominal,
-                             cfg.fit_feedthrough, cfg.fixed_rate, cfg.cubic)
+                             cfg.fit_feedthrough, cfg.fixed_rate, cfg.cubic, noise)
 
     fit = fit_with(ff.rho)
+    noise = fit.noise
     m1 = next((d for d in data if d.mode == 1), data[0])
     omega_r, amp = m1.omega_osc, lo.amplitude
     bias, sf = bias_and_scale_factor(fit, omega_r, amp)
