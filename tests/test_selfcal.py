@@ -235,6 +235,8 @@ def test_bad_settings_are_named() -> None:
     (["ratetable", "--noise", "1"],
      "rate table refused at -1 rad/s (pick-off noise 1 V per sample on a 1 V carrier)"),
     (["ratetable", "--dwell", "1", "--average", "2"], "average=2.0 s must lie between"),
+    (["selfcal-warmup"], "temperature_rate 0.0 K/s: a warm-up needs a positive ramp"),
+    (["selfcal-warmup", "--span", "0"], "--span: 0 must be > 0"),
 ])
 def test_cli_refuses_bad_input(argv, message, capsys) -> None:
     try:

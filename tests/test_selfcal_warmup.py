@@ -93,3 +93,25 @@ def test_a_rate_that_changes_between_the_records_is_refused_by_name(monkeypatch)
     monkeypatch.setattr(sequence, "smoothed_nco_phase", changing)
     with pytest.raises(CalibrationRefusedError, match="rate changed between the records"):
         self_calibrate(WARMING, design(WARMING, **SHORT))
+
+
+def test_calibrations_during_a_warm_up_follow_the_rate_table(tmp_path) -> None:
+    """Back to back through 1.5 K at 0.05 K/s (16.3 s per SHORT sequence: 0.8 K each),
+    noise-free: each point is checked against the rate table at its own temperature,
+    whose scale factor falls by tc_f per kelvin (the bias by what tc_Q moves)."""
+    from gyro_fmu.selfcal.warmup import warmup_curve, write_curve
+
+    res = replace(WARMING, tc_Q=-1e-3)
+    cfg = design(res, **SHORT)
+    points = warmup_curve(res, cfg, 1.5)
+    assert [p.status for p in points] == ["good", "good"]
+    warmer = points[1].temperature - points[0].temperature
+    assert warmer == pytest.approx(RAMP * (cfg.ff_duration + 0.1 + 2 * (3.0 + 5.0)), rel=1e-6)
+    drop = points[1].table_sf_ppm - points[0].table_sf_ppm
+    assert drop == pytest.approx(TC_F * 1e6 * warmer, abs=3.0)  # -24 ppm
+    for p in points:
+        assert abs(p.d_bias) < 7.27e-5 / 20 and abs(p.d_sf_ppm) < 100 / 10
+    paths = write_curve(points, tmp_path, {"span_K": 1.5})
+    assert [p.name for p in paths] == ["warmup.csv", "summary.json", "warmup.png"]
+    assert len((tmp_path / "warmup.csv").read_text().splitlines()) == 3
+

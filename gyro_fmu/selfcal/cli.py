@@ -128,8 +128,8 @@ def _common(p: argparse.ArgumentParser) -> None:
 def _cmd_selfcal(args: argparse.Namespace) -> int:
     from .alarms import CalibrationRefusedError
     from .phasors import PhasorError
-    from .ratetable import rate_table
-    from .sequence import FeedForward, self_calibrate
+    from .ratetable import table_at_readout
+    from .sequence import self_calibrate
 
     try:
         res = _resonator(args)
@@ -157,11 +157,7 @@ def _cmd_selfcal(args: argparse.Namespace) -> int:
           f"{s['Omega_z']:+.3e} rad/s (1 sigma {s['sigma_Omega_z']:.1e}), |Py/Px| "
           f"{s['relative_pickoff_gain']:.5f}, phase {s['relative_pickoff_phase_rad']:+.2e} rad")
     if args.compare_ratetable:
-        ff = FeedForward(result.feedthrough, result.rho, result.feedthrough * 0)
-        # the instrument as it was in the mode-1 record (the calibration's read-out),
-        # held there: the warm-up runs through the sequence, the table is static
-        at = replace(res.later(result.modes[0].t_center).without_noise(), temperature_rate=0.0)
-        table = rate_table(at, ff, cfg)
+        table = table_at_readout(res, result, cfg)  # held at the mode-1 record's temperature
         d_bias = result.bias - table.bias
         d_sf = (result.scale_factor / table.scale_factor - 1) * 1e6
         print(f"  rate table (noise-free, same feed-forward): bias {table.bias:+.4e} rad/s, "
@@ -247,6 +243,37 @@ def _cmd_lot(args: argparse.Namespace) -> int:
     return 1 if s["n_WRONG"] else 0
 
 
+@holds_out_folder("runs/selfcal_warmup")
+def _cmd_warmup(args: argparse.Namespace) -> int:
+    from .phasors import PhasorError
+    from .warmup import WarmupError, warmup_curve, write_curve
+
+    try:
+        res = _resonator(args)
+        cfg = _config(args, res)
+        points = warmup_curve(res, cfg, args.span, progress=None if args.quiet else lambda p: print(
+            f"  {p.temperature:8.3f} K  {p.status:7s}  bias {p.d_bias:+.2e} rad/s, "
+            f"SF {p.d_sf_ppm:+6.1f} ppm off the table (1 sigma {p.sigma_bias:.1e}, "
+            f"{p.sigma_sf_ppm:.1f})", flush=True))
+    except (ResonatorError, LoopsError, PhasorError, WarmupError) as exc:
+        raise ParameterError(str(exc)) from None
+    good = sum(p.status == "good" for p in points)
+    wrong = sum(p.status == "WRONG" for p in points)
+    summary = {"resonator": res.as_dict(), "config": cfg.as_dict(), "span_K": args.span,
+               "n": len(points), "n_good": good, "n_WRONG": wrong,
+               "largest_bias_difference_rad_s": max((abs(p.d_bias) for p in points
+                                                     if p.status == "good"), default=None),
+               "largest_sf_difference_ppm": max((abs(p.d_sf_ppm) for p in points
+                                                 if p.status == "good"), default=None)}
+    paths = write_curve(points, Path(args.out or "runs/selfcal_warmup"), summary,
+                        figure=not args.no_figures)
+    print(f"calibration during a warm-up of {args.span:g} K: {good} of {len(points)} in "
+          f"spec against the rate table, {len(points) - good - wrong} refused, {wrong} WRONG")
+    for p in paths:
+        print(f"  {p}")
+    return 1 if wrong else 0
+
+
 def _json(value: object) -> object:
     if isinstance(value, complex):
         return [value.real, value.imag]
@@ -301,6 +328,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     lot.add_argument("--quiet", action="store_true", help="no progress line")
     lot.add_argument("--no-figures", dest="no_figures", action="store_true")
     lot.set_defaults(func=_cmd_lot)
+
+    wu = sub.add_parser("selfcal-warmup", help="calibrate back to back while the "
+                        "resonator warms (--set temperature_rate=K/s, tc_f, tc_Q) over "
+                        "--span K, each checked against the rate table at its temperature")
+    _common(wu)
+    wu.add_argument("--span", type=options.positive, default=10.0,
+                    help="K of warm-up to calibrate through (default 10)")
+    wu.add_argument("--quiet", action="store_true", help="no line per calibration")
+    wu.add_argument("--no-figures", dest="no_figures", action="store_true")
+    wu.set_defaults(func=_cmd_warmup)
 
     rt = sub.add_parser("ratetable", help="conventional calibration on a simulated rate "
                         "table (the ground truth of selfcal)")

@@ -134,8 +134,8 @@ class LotModel:
 
 def calibrate_one(i: int, drawn: dict, seed: int) -> dict:
     """One resonator of the lot, reduced to a row (never raises for a calibration)."""
-    from .ratetable import rate_table
-    from .sequence import FeedForward, self_calibrate
+    from .ratetable import table_at_readout
+    from .sequence import self_calibrate
 
     start = time.perf_counter()
     nominal = replace(ResonatorParameters(), **drawn["nominal"])
@@ -149,11 +149,7 @@ def calibrate_one(i: int, drawn: dict, seed: int) -> dict:
         except CalibrationRefusedError as exc:
             result, status, reason = exc.result, "refused", " | ".join(exc.problems)
         if result is not None:
-            ff = FeedForward(result.feedthrough, result.rho, result.feedthrough * 0)
-            # the instrument as it was in the mode-1 record (the read-out's), held there
-            held = replace(instrument.later(result.modes[0].t_center).without_noise(),
-                           temperature_rate=0.0)
-            table = rate_table(held, ff, cfg)
+            table = table_at_readout(instrument, result, cfg)
             d_bias = result.bias - table.bias
             d_sf = (result.scale_factor / table.scale_factor - 1) * 1e6
             s_sf = result.sigma_sf_ppm

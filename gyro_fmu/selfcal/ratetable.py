@@ -126,3 +126,14 @@ def rate_table(res: ResonatorParameters, ff: FeedForward, cfg: SelfCalConfig | N
     return RateTableResult(r, y, bias, sf, s_bias, math.sqrt(cov[0, 0]),
                            float(np.max(np.abs(resid))) / abs(sf),
                            time.perf_counter() - start, max(drifts) / abs(sf))
+
+
+def table_at_readout(instrument: ResonatorParameters, result: object,
+                     cfg: SelfCalConfig) -> RateTableResult:
+    """The rate table a calibration is judged against: the instrument as it was in the
+    calibration's mode-1 record (the read-out's), held at that temperature, noise-free,
+    with the calibration's own feed-forward (result: a SelfCalResult)."""
+    ff = FeedForward(result.feedthrough, result.rho, result.feedthrough * 0)
+    held = replace(instrument.later(result.modes[0].t_center).without_noise(),
+                   temperature_rate=0.0)
+    return rate_table(held, ff, cfg)
