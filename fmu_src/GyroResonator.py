@@ -33,3 +33,4 @@ class GyroResonator(GyroSlave):
 
     def _publish(self) -> None:
         self.Vpx, self.Vpy = self.model.out.tolist()
+        self.T_sensor = self.model.T_sensor

@@ -65,7 +65,11 @@ def _step(p: ResonatorParameters) -> float:
 
 
 def _oracle(p, lo, duration, h, Omega_z):
-    res = oracle_resonator.ResonatorParameters(**dataclasses.asdict(p))
+    # the oracle predates the warm-up and the temperature sensor: they stay at their
+    # defaults (no warm-up, no sensor noise) in these cases
+    known = {f.name for f in dataclasses.fields(oracle_resonator.ResonatorParameters)}
+    res = oracle_resonator.ResonatorParameters(
+        **{k: v for k, v in dataclasses.asdict(p).items() if k in known})
     loops = oracle_loops.LoopSettings(**dataclasses.asdict(lo))
     return oracle_inprocess.CarrierSimulation(res, loops, step=h, Omega_z=Omega_z).run(duration)
 

@@ -235,7 +235,9 @@ def test_bad_settings_are_named() -> None:
     (["ratetable", "--noise", "1"],
      "rate table refused at -1 rad/s (pick-off noise 1 V per sample on a 1 V carrier)"),
     (["ratetable", "--dwell", "1", "--average", "2"], "average=2.0 s must lie between"),
-    (["selfcal-warmup"], "temperature_rate 0.0 K/s: a warm-up needs a positive ramp"),
+    (["selfcal-warmup"], "temperature_rate 0.0 K/s and warmup_span 0.0 K never warm"),
+    (["selfcal-warmup", "--set", "warmup_span=5", "--set", "warmup_tau=0"],
+     "warmup_tau=0.0 s must be > 0 with a warm-up"),
     (["selfcal-warmup", "--span", "0"], "--span: 0 must be > 0"),
 ])
 def test_cli_refuses_bad_input(argv, message, capsys) -> None:

@@ -93,6 +93,34 @@ def test_initial_outputs_are_the_models(models_dir):
     loops.close()
 
 
+def test_the_temperature_sensor_follows_the_history(models_dir):
+    """A ramp plus an exponential warm-up, sensed with noise: GyroResonator.fmu's
+    T_sensor equals the library's sample for sample (the same core), its mean follows
+    temperature + rate t + span (1 - exp(-t / tau)) and its scatter is the sensor's."""
+    p = ResonatorParameters(temperature_rate=20.0, warmup_span=3.0, warmup_tau=0.01,
+                            temperature_noise=0.05, tc_f=-30e-6, thermal_update_steps=40)
+    h, n = 25e-6, 2000
+    res = Instance(models_dir / "GyroResonator.fmu", "r", {**p.as_dict(), "seed": 7})
+    model = ResonatorModel(p, seed=7)
+    fmu, lib = [res.get(["T_sensor"])[0]], [model.T_sensor]
+    for _ in range(n):
+        res.set({"Vx": 0.1, "Vy": 0.0, "Omega_z": 0.0})
+        assert res.step(h) == 0
+        model.step(np.array([0.1, 0.0]), 0.0, h)
+        fmu.append(res.get(["T_sensor"])[0])
+        lib.append(model.T_sensor)
+    res.close()
+    assert fmu == lib
+    t = np.arange(n + 1) * h
+    truth = 300.0 + 20.0 * t + 3.0 * -np.expm1(-t / 0.01)
+    assert np.array(fmu)[-1] == pytest.approx(300.0 + 1.0 + 3.0 * (1 - math.exp(-5)), abs=0.3)
+    assert np.std(np.array(fmu) - truth) == pytest.approx(0.05, rel=0.1)
+    assert p.temperature_offset(0.05) == pytest.approx(truth[-1] - 300.0, rel=1e-12)
+    # the history composes: later(a).later(b) is later(a + b)
+    assert p.later(0.02).later(0.03).temperature == pytest.approx(p.later(0.05).temperature,
+                                                                  abs=1e-12)
+
+
 CASES = {
     "GyroResonator": ({"noise": 1e-3, "ring_amplitude": 1.0, "seed": 5}, ["Vpx", "Vpy"],
                       lambda t: {"Vx": math.sin(2 * math.pi * 4000 * t),

@@ -20,7 +20,8 @@ static const struct {
     REAL(Exx), REAL(Exy), REAL(Eyx), REAL(Eyy), REAL(c_ring), REAL(k3x), REAL(k3y),
     REAL(ring_amplitude), REAL(ring_frequency_1), REAL(ring_frequency_2), REAL(noise),
     REAL(beta_x), REAL(beta_y), REAL(k3xy), REAL(k3yx), REAL(m_modal), REAL(temperature),
-    REAL(drive_noise), REAL(temperature_rate), REAL(tc_f), REAL(tc_Q)};
+    REAL(drive_noise), REAL(temperature_rate), REAL(tc_f), REAL(tc_Q), REAL(warmup_span),
+    REAL(warmup_tau), REAL(temperature_noise)};
 #define N_REALS (sizeof REALS / sizeof REALS[0])
 
 static double real_of(const GyroResonatorParams *p, size_t i) {
@@ -83,13 +84,20 @@ int gyro_resonator_problems(const GyroResonatorParams *p, char *msg, size_t n) {
         const char *name, *unit;
         double value;
     } nonneg[] = {{"noise", "V", p->noise}, {"drive_noise", "V", p->drive_noise},
-                  {"m_modal", "kg", p->m_modal}, {"temperature", "K", p->temperature}};
-    for (int i = 0; i < 4; i++)
+                  {"m_modal", "kg", p->m_modal}, {"temperature", "K", p->temperature},
+                  {"temperature_noise", "K", p->temperature_noise}};
+    for (int i = 0; i < 5; i++)
         if (nonneg[i].value < 0.0) {
             snprintf(text, sizeof text, "%s=%s %s must be >= 0", nonneg[i].name,
                      gyro_real_text(nonneg[i].value, v), nonneg[i].unit);
             gyro_text_add(msg, n, text);
         }
+    if (p->warmup_span != 0.0 && !(p->warmup_tau > 0.0)) {
+        snprintf(text, sizeof text, "warmup_tau=%s s must be > 0 with a warm-up "
+                 "(warmup_span != 0): the warm-up's time constant",
+                 gyro_real_text(p->warmup_tau, v));
+        gyro_text_add(msg, n, text);
+    }
     if (msg[0]) return 1;
     const double wx = omega_x(p), wy = omega_y(p);
     if (p->kxy * p->kxy >= (wx * wx) * (wy * wy)) {
@@ -425,13 +433,29 @@ static int force_input(const GyroResonatorParams *p, double Omega_z, double h, d
     return 0;
 }
 
-static int ramp(const GyroResonator *r) { return r->p.temperature_rate != 0.0; }
+static int ramp(const GyroResonator *r) {
+    return r->p.temperature_rate != 0.0 || r->p.warmup_span != 0.0;
+}
+
+double gyro_resonator_temperature_offset(const GyroResonatorParams *p, double t) {
+    double dT = p->temperature_rate * t;
+    if (p->warmup_span != 0.0) dT += p->warmup_span * -expm1(-t / p->warmup_tau);
+    return dT;
+}
 
 /* K from the start temperature of the middle of the current thermal interval. */
 static double temperature_offset(const GyroResonator *r, double h) {
     if (!ramp(r)) return 0.0;
     const int64_t N_ = r->p.thermal_update_steps;
-    return r->p.temperature_rate * ((double)((r->k / N_) * N_) + N_ / 2.0) * h;
+    return gyro_resonator_temperature_offset(&r->p, ((double)((r->k / N_) * N_) + N_ / 2.0) * h);
+}
+
+/* The temperature sensor's sample at step k (time k h). */
+static void sense_temperature(GyroResonator *r, double h) {
+    const GyroResonatorParams *p = &r->p;
+    r->T_sensor = p->temperature + (ramp(r) ? gyro_resonator_temperature_offset(p, r->k * h) : 0.0);
+    if (p->temperature_noise != 0.0)
+        r->T_sensor += p->temperature_noise * gyro_rng_normal(&r->sensor_rng);
 }
 
 int64_t gyro_resonator_steps_left(const GyroResonator *r) {
@@ -460,6 +484,7 @@ int gyro_resonator_maps(GyroResonator *r, double Omega_z, double h, char *msg, s
 }
 
 static uint64_t second_stream(uint64_t seed) { return seed ^ 0x6A09E667F3BCC909ULL; }
+static uint64_t third_stream(uint64_t seed) { return seed ^ 0xBB67AE8584CAA73BULL; }
 
 int gyro_resonator_init(GyroResonator *r, const GyroResonatorParams *p, uint64_t seed,
                         const double *initial_state, char *msg, size_t n) {
@@ -469,6 +494,7 @@ int gyro_resonator_init(GyroResonator *r, const GyroResonatorParams *p, uint64_t
     r->seed = seed;
     gyro_rng_seed(&r->noise_rng, seed);
     gyro_rng_seed(&r->force_rng, second_stream(seed));
+    gyro_rng_seed(&r->sensor_rng, third_stream(seed));
     if (initial_state) {
         memcpy(r->s, initial_state, sizeof r->s);
     } else {
@@ -485,6 +511,7 @@ int gyro_resonator_init(GyroResonator *r, const GyroResonatorParams *p, uint64_t
     }
     if (p->noise != 0.0)
         for (int i = 0; i < 2; i++) r->out[i] += p->noise * gyro_rng_normal(&r->noise_rng);
+    sense_temperature(r, 0.0);
     return 0;
 }
 
@@ -535,6 +562,7 @@ int gyro_resonator_step(GyroResonator *r, double Vx, double Vy, double Omega_z, 
     for (int i = 0; i < 2; i++)
         r->out[i] = gains[i] * s[4 + i] + E[i][0] * V[0] + E[i][1] * V[1] + noise[i];
     r->k++;
+    sense_temperature(r, h);
     return 0;
 }
 

@@ -10,8 +10,10 @@
  * stiffness k3x x^3 + k3xy y^3, k3y y^3 + k3yx x^3 (eqs. 20-23) by Strang splitting (n
  * substeps: linear flow h/2n, cubic kick h/n, linear flow h/2n); thermomechanical force
  * noise of two-sided intensity 2 k_B T D / m_modal, white drive-voltage noise, and a
- * temperature ramp (f by tc_f, Q by tc_Q per kelvin; step matrices recomputed every
- * thermal_update_steps steps at the interval's mid temperature). docs/resonator-physics.md
+ * temperature history dT(t) = temperature_rate t + warmup_span (1 - exp(-t / warmup_tau))
+ * (f by tc_f, Q by tc_Q per kelvin; step matrices recomputed every thermal_update_steps
+ * steps at the interval's mid temperature) with a temperature sensor T_sensor =
+ * temperature + dT(t) + white noise of std temperature_noise (its own stream). docs/resonator-physics.md
  * derives each term.
  *
  * State s = (x, y, vx, vy, zx, zy, ring1 cos, sin, ring2 cos, sin). Each step holds
@@ -58,6 +60,9 @@ typedef struct {
     double temperature_rate; /* K/s */
     double tc_f, tc_Q;      /* 1/K, relative change of f and of Q per kelvin */
     int32_t thermal_update_steps; /* steps between re-discretizations during a ramp */
+    double warmup_span;     /* K, exponential warm-up: its total rise (0 = none) */
+    double warmup_tau;      /* s, its time constant */
+    double temperature_noise; /* K, std of white noise on each temperature-sensor sample */
 } GyroResonatorParams;
 
 /* One held step's maps, for (Omega_z, h, dT): s' = Phi s + Gamma V (+ L w). With cubic
@@ -75,15 +80,20 @@ typedef struct {
     uint64_t seed;
     double s[GYRO_RES_N];
     double out[2];           /* Vpx, Vpy at the current time */
+    double T_sensor;         /* K, the temperature sensor at the current time */
     int64_t k;               /* steps taken: the temperature ramp's clock */
     GyroRng noise_rng;       /* pick-off noise */
     GyroRng force_rng;       /* force and drive noise */
+    GyroRng sensor_rng;      /* temperature-sensor noise (its own stream) */
     GyroResonatorMaps maps;
 } GyroResonator;
 
 /* Problems with p (0 when usable), "; "-separated in msg, each naming the value and the
  * remedy. */
 int gyro_resonator_problems(const GyroResonatorParams *p, char *msg, size_t n);
+
+/* K from the start temperature t seconds into the run (the history above). */
+double gyro_resonator_temperature_offset(const GyroResonatorParams *p, double t);
 
 /* (kxx, kyy, dxx, dyy) dT kelvin from the start temperature; 1 (and msg) where f or Q
  * would reach 0. */

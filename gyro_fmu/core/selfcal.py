@@ -27,7 +27,8 @@ RESONATOR_FIELDS = (
     "Py", "phi_x", "phi_y", "Exx", "Exy", "Eyx", "Eyy", "c_ring", "k3x", "k3y",
     "cubic_substeps", "ring_amplitude", "ring_frequency_1", "ring_frequency_2", "noise",
     "beta_x", "beta_y", "k3xy", "k3yx", "m_modal", "temperature", "drive_noise",
-    "temperature_rate", "tc_f", "tc_Q", "thermal_update_steps")
+    "temperature_rate", "tc_f", "tc_Q", "thermal_update_steps", "warmup_span", "warmup_tau",
+    "temperature_noise")
 LOOP_FIELDS = (
     "mode", "f_nominal", "amplitude", "q_nominal", "plant_gain", "pll_bandwidth",
     "agc_bandwidth", "rebalance_bandwidth", "demod_cutoff", "rebalance_cutoff", "drive_limit",
@@ -60,8 +61,8 @@ class ResonatorMaps(ctypes.Structure):
 
 class Resonator(ctypes.Structure):
     _fields_ = [("p", ResonatorParams), ("seed", c_uint64), ("s", _D * _N), ("out", _D * 2),
-                ("k", c_int64), ("noise_rng", Rng), ("force_rng", Rng),
-                ("maps", ResonatorMaps)]
+                ("T_sensor", _D), ("k", c_int64), ("noise_rng", Rng), ("force_rng", Rng),
+                ("sensor_rng", Rng), ("maps", ResonatorMaps)]
 
 
 class LoopSettings(ctypes.Structure):
@@ -94,6 +95,7 @@ _MSG = [c_char_p, c_size_t]
 FUNCTIONS = {
     "gyro_resonator_problems": (c_int, [POINTER(ResonatorParams), *_MSG]),
     "gyro_resonator_at_temperature": (c_int, [POINTER(ResonatorParams), _D, _P, *_MSG]),
+    "gyro_resonator_temperature_offset": (_D, [POINTER(ResonatorParams), _D]),
     "gyro_resonator_system": (c_int, [POINTER(ResonatorParams), _D, _D, _P, _P, *_MSG]),
     "gyro_resonator_discretize": (c_int, [POINTER(ResonatorParams), _D, _D, _D, _P, _P, *_MSG]),
     "gyro_resonator_force_covariance": (c_int, [POINTER(ResonatorParams), _D, _D, _D, _P,

@@ -108,6 +108,11 @@ class ResonatorParameters:
     tc_f: float = 0.0  #: 1/K, relative change of f_x and f_y per kelvin (e.g. -30e-6)
     tc_Q: float = 0.0  #: 1/K, relative change of Q_x and Q_y per kelvin
     thermal_update_steps: int = 4000  #: steps between re-discretizations during a ramp
+    #: K, exponential warm-up: the temperature also rises by
+    #: warmup_span (1 - exp(-t / warmup_tau)) (0 = none; with temperature_rate, the sum)
+    warmup_span: float = 0.0
+    warmup_tau: float = 600.0  #: s, the warm-up's time constant
+    temperature_noise: float = 0.0  #: K, std of white noise on each temperature-sensor sample
 
     @property
     def omega_x(self) -> float:
@@ -172,19 +177,27 @@ class ResonatorParameters:
         return replace(self, noise=0.0, m_modal=0.0, drive_noise=0.0)
 
     def later(self, t: float) -> ResonatorParameters:
-        """The same instrument t seconds later on its temperature history (the ramp
-        temperature_rate continuing): temperature, f_x, f_y, Q_x, Q_y as the core's
-        gyro_resonator_at_temperature gives them after dT = temperature_rate * t, the
-        ramp going on from there. A calibration sequence runs each record from here, so
-        the warm-up runs through the whole sequence (docs/self-calibration.md)."""
-        dT = self.temperature_rate * t
+        """The same instrument t seconds later on its temperature history: temperature,
+        f_x, f_y, Q_x, Q_y as the core's gyro_resonator_at_temperature gives them after
+        dT = gyro_resonator_temperature_offset(t) (the ramp and the exponential
+        warm-up), the history going on from there (the warm-up's remaining rise
+        warmup_span exp(-t / warmup_tau)). A calibration sequence runs each record from
+        here, so the warm-up runs through the whole sequence (docs/self-calibration.md)."""
+        dT = self.temperature_offset(t)
         if dT == 0.0:
             return self
         (kd, pk) = _out(4)
         _call("gyro_resonator_at_temperature", _params(self), dT, pk)
         wx, wy = math.sqrt(kd[0]), math.sqrt(kd[1])
+        rest = self.warmup_span * math.exp(-t / self.warmup_tau) if self.warmup_span else 0.0
         return replace(self, temperature=self.temperature + dT, f_x=wx / (2 * math.pi),
-                       f_y=wy / (2 * math.pi), Q_x=wx / kd[2], Q_y=wy / kd[3])
+                       f_y=wy / (2 * math.pi), Q_x=wx / kd[2], Q_y=wy / kd[3],
+                       warmup_span=rest)
+
+    def temperature_offset(self, t: float) -> float:
+        """K from the start temperature t seconds on (the core's history)."""
+        return float(c.selfcal_core().gyro_resonator_temperature_offset(
+            ctypes.byref(_params(self)), t))
 
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
@@ -318,6 +331,11 @@ class ResonatorModel(c.CoreStructState):
     def k(self) -> int:
         """Steps taken (the temperature ramp's clock)."""
         return self.core.k
+
+    @property
+    def T_sensor(self) -> float:
+        """K, the temperature sensor at the current time (history plus its noise)."""
+        return self.core.T_sensor
 
     def steps_left(self) -> int:
         """Steps until the temperature ramp changes the step matrices (or a large n)."""

@@ -103,12 +103,14 @@ _RESONATOR_UNITS = {
     "ring_amplitude": "V", "ring_frequency_1": "Hz", "ring_frequency_2": "Hz", "noise": "V",
     "k3x": "1/(m2.s2)", "k3y": "1/(m2.s2)", "k3xy": "1/(m2.s2)", "k3yx": "1/(m2.s2)",
     "beta_x": "rad", "beta_y": "rad", "m_modal": "kg", "temperature": "K", "drive_noise": "V",
-    "temperature_rate": "K/s", "tc_f": "1/K", "tc_Q": "1/K",
+    "temperature_rate": "K/s", "tc_f": "1/K", "tc_Q": "1/K", "warmup_span": "K",
+    "warmup_tau": "s", "temperature_noise": "K",
 }
 #: Declared bounds (check_resonator states the strict ones at initialization).
 _RESONATOR_BOUNDS = {
     **{n: {"min": 0.0} for n in ("f_x", "f_y", "Q_x", "Q_y", "kappa", "Bx", "By", "Px", "Py",
-                                 "noise", "drive_noise", "m_modal", "temperature")},
+                                 "noise", "drive_noise", "m_modal", "temperature",
+                                 "temperature_noise")},
     **{n: {"min": -0.5, "max": 0.5} for n in ("beta_x", "beta_y")},
     **{n: {"min": 0.0, "max": 1.5} for n in ("phi_x", "phi_y")},
     "Px": {"min": 0.0, "nominal": 1e6}, "Py": {"min": 0.0, "nominal": 1e6},
@@ -142,9 +144,11 @@ RESONATOR = FmuInterface(
         'communication step, which is integrated exactly (matrix exponential). Optional '
         'thermomechanical force noise (one-sided PSD 4 k_B T D / m_modal, D the damping '
         'matrix), white noise of std drive_noise on the held Vx, Vy, and a temperature ramp '
-        'temperature_rate moving f by tc_f and Q by tc_Q per kelvin (step matrices recomputed '
-        'every thermal_update_steps steps). The seeded noise (pick-off noise and, from an '
-        'independent stream, force and drive noise) equals the in-process '
+        'temperature history dT(t) = temperature_rate t + warmup_span (1 - exp(-t / '
+        'warmup_tau)) moving f by tc_f and Q by tc_Q per kelvin (step matrices recomputed '
+        'every thermal_update_steps steps), sensed by T_sensor = temperature + dT(t) + white '
+        'noise of std temperature_noise (its own stream). The seeded noise (pick-off noise '
+        'and, from an independent stream, force and drive noise) equals the in-process '
         'gyro_fmu.selfcal.inprocess run sample for sample (the same C core).'),
     variables=(
         *parameter_variables(ResonatorParameters, _RESONATOR_UNITS, bounds=_RESONATOR_BOUNDS),
@@ -155,6 +159,8 @@ RESONATOR = FmuInterface(
         Var("Omega_z", "input", 0.0, "rad/s", "angular rate about z, held over the step"),
         Var("Vpx", "output", 0.0, "V", "x pick-off voltage"),
         Var("Vpy", "output", 0.0, "V", "y pick-off voltage"),
+        Var("T_sensor", "output", 300.0, "K", "temperature sensor: the resonator's "
+            "temperature plus its white noise"),
     ),
     # 0.6 V on x at 1 rad/s: the pick-offs move
     doctor_check=({"Vx": 0.6, "Vy": 0.0, "Omega_z": 1.0}, ("Vpx", "Vpy")),

@@ -270,9 +270,10 @@ def histograms(res: LotResult, path: Path) -> Path:
         ax[2].hist(zs, bins=25, alpha=0.6, label="scale factor")
     ax[2].set_xlabel("error / reported 1-sigma (1)")
     ax[2].legend(fontsize=8)
-    ax[3].scatter([r["true_f_x"] / 1e3 for r in res.rows], [r["true_Q_x"] for r in res.rows],
+    drawn = [r for r in res.rows if "true_f_x" in r]  # a lost task's row has no draw
+    ax[3].scatter([r["true_f_x"] / 1e3 for r in drawn], [r["true_Q_x"] for r in drawn],
                   c=["C0" if r["status"] == "good" else "C3" if r["status"] == "WRONG"
-                     else "C1" for r in res.rows], s=12)
+                     else "C1" for r in drawn], s=12)
     ax[3].set_xlabel("f_x (kHz)")
     ax[3].set_ylabel("Q_x (1)")
     ax[3].set_yscale("log")

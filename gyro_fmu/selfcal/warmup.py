@@ -1,9 +1,10 @@
 """Calibration during a warm-up: bias and scale factor against temperature.
 
 The patent's point is to calibrate in the field, without a turntable. Here the
-instrument warms at its temperature_rate while calibrations run back to back, each
-starting where the last one's sequence ended on the same temperature history
-(ResonatorParameters.later), until the temperature has risen by the span. Each is
+instrument warms (temperature_rate, warmup_span, warmup_tau) while calibrations run
+back to back, each starting where the last one's sequence ended on the same
+temperature history (ResonatorParameters.later), until the temperature has risen by
+the span. Each is
 checked against a rate table of the instrument held at the temperature of its mode-1
 record (ratetable.table_at_readout), so the curve of the calibrations can be laid
 beside the rate table's at the same temperatures.
@@ -52,17 +53,20 @@ class CurvePoint:
 
 def warmup_curve(instrument: ResonatorParameters, cfg: object, span: float,
                  progress: Callable[[CurvePoint], None] | None = None) -> list[CurvePoint]:
-    """Calibrate back to back while the temperature rises by span (K) at the
-    instrument's temperature_rate (cfg: a SelfCalConfig); one CurvePoint each."""
+    """Calibrate back to back while the temperature rises by span (K) on the
+    instrument's temperature history (its ramp and exponential warm-up; cfg: a
+    SelfCalConfig); one CurvePoint each."""
     from .ratetable import table_at_readout
     from .sequence import self_calibrate
 
-    rate = instrument.temperature_rate
+    rate, rise = instrument.temperature_rate, instrument.warmup_span
     if not (math.isfinite(span) and span > 0.0):
         raise WarmupError(f"span {span!r} K must be a positive number of kelvins")
-    if not rate > 0.0:
-        raise WarmupError(f"temperature_rate {rate!r} K/s: a warm-up needs a positive "
-                          "ramp (--set temperature_rate=0.01)")
+    if not (rate > 0.0 or rise > span):
+        raise WarmupError(f"temperature_rate {rate!r} K/s and warmup_span {rise!r} K never "
+                          f"warm the resonator by the span {span:g} K: a warm-up needs a "
+                          "positive ramp (--set temperature_rate=0.01) or an exponential "
+                          "rise beyond the span (--set warmup_span=K --set warmup_tau=S)")
     points: list[CurvePoint] = []
     t, sf_ref = 0.0, None
     nominal = cfg.ff_duration + 0.1 + len(cfg.modes) * (cfg.settle + cfg.record)
@@ -70,7 +74,7 @@ def warmup_curve(instrument: ResonatorParameters, cfg: object, span: float,
 
     from .sequence import MAX_SEED
 
-    while rate * t < span:
+    while instrument.temperature_offset(t) < span:
         start = instrument.later(t)
         # fresh noise for each calibration (a sequence draws seeds seed + 0..10)
         each = replace(cfg, seed=(cfg.seed + 11 * len(points)) % (MAX_SEED + 1))

@@ -1,7 +1,7 @@
 /* GyroResonator.fmu: the resonator of US 9,482,553 (eq. 1) over the core's exact
  * held-input step (core/gyro_resonator.h). Inputs Vx, Vy, Omega_z are held over each
  * communication step; outputs are the pick-off voltages Vpx, Vpy (seeded noise when
- * noise, m_modal or drive_noise > 0). A temperature ramp that takes f or Q to 0 fails
+ * noise, m_modal or drive_noise > 0) and the temperature sensor T_sensor. A temperature ramp that takes f or Q to 0 fails
  * the step with a message naming it. */
 #include <stddef.h>
 
@@ -27,11 +27,14 @@ static GyroResonatorParams params_of(const Variables *v) {
     p.temperature = v->temperature, p.drive_noise = v->drive_noise;
     p.temperature_rate = v->temperature_rate, p.tc_f = v->tc_f, p.tc_Q = v->tc_Q;
     p.thermal_update_steps = v->thermal_update_steps;
+    p.warmup_span = v->warmup_span, p.warmup_tau = v->warmup_tau;
+    p.temperature_noise = v->temperature_noise;
     return p;
 }
 
 static void publish(ModelData *d) {
     d->v.Vpx = d->resonator.out[0], d->v.Vpy = d->resonator.out[1];
+    d->v.T_sensor = d->resonator.T_sensor;
 }
 
 static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) {
