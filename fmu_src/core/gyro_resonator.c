@@ -453,7 +453,7 @@ static double temperature_offset(const GyroResonator *r, double h) {
 /* The temperature sensor's sample at step k (time k h). */
 static void sense_temperature(GyroResonator *r, double h) {
     const GyroResonatorParams *p = &r->p;
-    r->T_sensor = p->temperature + (ramp(r) ? gyro_resonator_temperature_offset(p, r->k * h) : 0.0);
+    r->T_sensor = p->temperature + gyro_resonator_temperature_offset(p, r->k * h);
     if (p->temperature_noise != 0.0)
         r->T_sensor += p->temperature_noise * gyro_rng_normal(&r->sensor_rng);
 }

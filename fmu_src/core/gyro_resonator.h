@@ -13,8 +13,8 @@
  * temperature history dT(t) = temperature_rate t + warmup_span (1 - exp(-t / warmup_tau))
  * (f by tc_f, Q by tc_Q per kelvin; step matrices recomputed every thermal_update_steps
  * steps at the interval's mid temperature) with a temperature sensor T_sensor =
- * temperature + dT(t) + white noise of std temperature_noise (its own stream). docs/resonator-physics.md
- * derives each term.
+ * temperature + dT(t) + white noise of std temperature_noise (its own stream).
+ * docs/resonator-physics.md derives each term.
  *
  * State s = (x, y, vx, vy, zx, zy, ring1 cos, sin, ring2 cos, sin). Each step holds
  * (Vx, Vy, Omega_z) and is the exact zero-order-hold solution (Van Loan: one matrix

@@ -113,15 +113,15 @@ def pickoff_noise(signal: np.ndarray, h: float, f_carrier: float) -> float:
 
 def misfit_problems(fit) -> tuple[float, list[str]]:
     """(misfit ratio, problems): sqrt(chi^2 / dof) of the eq. 19 fit weighted by its
-    noise model (estimator.NoiseModel: white pick-off noise, fitted force noise, the
-    model floor); the rms residual is quoted beside it."""
+    noise model (estimator.NoiseModel: white pick-off noise, force noise measured
+    between the tones, the model floor); the rms residual is quoted beside it."""
     ratio = fit.misfit
     if not ratio <= MISFIT_LIMIT:
         force = ", ".join(f"{f:.2g}" for f in fit.noise.force) if fit.noise else "none"
         return ratio, [
             f"the eq. 19 model does not fit the sidebands: its residuals (rms "
             f"{fit.rms_residual:.2g} V) are {ratio:.3g} times what the noise model "
-            f"leaves (white pick-off noise, force noise {force} fitted, floor "
+            f"leaves (white pick-off noise, force noise {force} measured between the tones, floor "
             f"{fit.noise.floor if fit.noise else math.nan:.2g} V; limit {MISFIT_LIMIT:g}x): "
             "an imperfection the model lacks (cubic or cross-cubic "
             "stiffness: lower the drive --loop amplitude=V; the temperature "

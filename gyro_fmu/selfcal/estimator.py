@@ -293,7 +293,7 @@ def off_grid_force_noise(x: np.ndarray, modes: list[ModeData], omega_ref: float,
     predicts; iteratively reweighted non-negative least squares on |r|^2 (exponential:
     its spread is its mean). Records without such bins (one FFT bin per grid step)
     add nothing; with none at all the force is 0."""
-    rows, targets = [], []
+    rows, power, whites = [], [], []
     for i, md in enumerate(modes):
         if md.off_omega.size == 0:
             continue
@@ -301,13 +301,12 @@ def off_grid_force_noise(x: np.ndarray, modes: list[ModeData], omega_ref: float,
                        shift=md.shift)
         r = off.PO - predicted_pickoffs(x, off, omega_ref, rho, kappa, h, fit_feedthrough)
         rows.append(force_gains(x, [off], omega_ref, rho, kappa))
-        targets.append(HANN_OVER_RECT * np.abs(r.ravel()) ** 2
-                       - np.tile(noise.white[i], md.off_omega.size))
+        power.append(HANN_OVER_RECT * np.abs(r.ravel()) ** 2)
+        whites.append(np.tile(noise.white[i], md.off_omega.size))
     if not rows:
         return np.zeros(2)
-    A, y = np.concatenate(rows), np.concatenate(targets)
-    white = np.concatenate([np.tile(noise.white[i], md.off_omega.size)
-                            for i, md in enumerate(modes) if md.off_omega.size])
+    A, white = np.concatenate(rows), np.concatenate(whites)
+    y = np.concatenate(power) - white
     force = np.zeros(2)
     for _ in range(4):
         spread = white + A @ force + noise.floor**2

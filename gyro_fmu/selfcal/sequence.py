@@ -380,7 +380,7 @@ def estimate(data: list[ModeData], ff: FeedForward, cfg: SelfCalConfig,
                              cfg.fit_feedthrough, cfg.fixed_rate, cfg.cubic, noise)
 
     fit = fit_with(ff.rho)
-    noise = fit.noise
+    noise = fit.noise  # measured now: fit_with's refits below are weighted by it as it is
     m1 = next((d for d in data if d.mode == 1), data[0])
     omega_r, amp = m1.omega_osc, lo.amplitude
     bias, sf = bias_and_scale_factor(fit, omega_r, amp)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from ..errors import GyroFmuError
 from ..model.resonator import ResonatorParameters
@@ -57,7 +57,7 @@ def warmup_curve(instrument: ResonatorParameters, cfg: object, span: float,
     instrument's temperature history (its ramp and exponential warm-up; cfg: a
     SelfCalConfig); one CurvePoint each."""
     from .ratetable import table_at_readout
-    from .sequence import self_calibrate
+    from .sequence import MAX_SEED, self_calibrate
 
     rate, rise = instrument.temperature_rate, instrument.warmup_span
     if not (math.isfinite(span) and span > 0.0):
@@ -70,10 +70,6 @@ def warmup_curve(instrument: ResonatorParameters, cfg: object, span: float,
     points: list[CurvePoint] = []
     t, sf_ref = 0.0, None
     nominal = cfg.ff_duration + 0.1 + len(cfg.modes) * (cfg.settle + cfg.record)
-    from dataclasses import replace
-
-    from .sequence import MAX_SEED
-
     while instrument.temperature_offset(t) < span:
         start = instrument.later(t)
         # fresh noise for each calibration (a sequence draws seeds seed + 0..10)
@@ -83,7 +79,7 @@ def warmup_curve(instrument: ResonatorParameters, cfg: object, span: float,
         except CalibrationRefusedError as exc:
             result, status, reason = exc.result, "refused", " | ".join(exc.problems)
         if result is None:  # the loops did not hold: no record to time, no number
-            points.append(CurvePoint(t, instrument.later(t).temperature, status, reason))
+            points.append(CurvePoint(t, start.temperature, status, reason))
             t += nominal
             continue
         table = table_at_readout(start, result, each)
@@ -95,7 +91,7 @@ def warmup_curve(instrument: ResonatorParameters, cfg: object, span: float,
             result.record)
         if status == "good" and not (abs(point.d_bias) < BIAS_TOLERANCE
                                      and abs(point.d_sf_ppm) < SF_TOLERANCE_PPM):
-            point = CurvePoint(**{**point.__dict__, "status": "WRONG"})
+            point = replace(point, status="WRONG")
         points.append(point)
         if progress:
             progress(point)

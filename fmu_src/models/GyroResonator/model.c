@@ -1,8 +1,8 @@
 /* GyroResonator.fmu: the resonator of US 9,482,553 (eq. 1) over the core's exact
  * held-input step (core/gyro_resonator.h). Inputs Vx, Vy, Omega_z are held over each
  * communication step; outputs are the pick-off voltages Vpx, Vpy (seeded noise when
- * noise, m_modal or drive_noise > 0) and the temperature sensor T_sensor. A temperature ramp that takes f or Q to 0 fails
- * the step with a message naming it. */
+ * noise, m_modal or drive_noise > 0) and the temperature sensor T_sensor. A temperature
+ * history that takes f or Q to 0 fails the step with a message naming it. */
 #include <stddef.h>
 
 #include "gyro_resonator.h"
