@@ -279,3 +279,24 @@ def test_the_c_stepping_loop_equals_a_plain_python_master() -> None:
     assert len(want) >= 30
     for key, column in want.items():
         assert np.array_equal(got[key], column), key
+
+
+def test_a_sink_gets_every_row_of_the_run_in_order(models_dir):
+    """sink: the rows handed on chunk by chunk are the rows a whole run keeps, with a
+    buffer of one chunk (5,001 points: three chunks, the last one short)."""
+    drive = Component("drive", models_dir / "TwoToneDrive.fmu")
+    plant = Component("plant", models_dir / "GyroPlant.fmu")
+    wiring = [Connection("drive.ux", "plant.ux"), Connection("drive.uy", "plant.uy")]
+    whole = run_cosimulation([drive, plant], wiring, 0.025, 5e-6, record=["plant.x", "drive.ux"])
+    chunks, firsts = [], []
+
+    def sink(rows: np.ndarray, k: int) -> None:
+        chunks.append(rows.copy())
+        firsts.append(k)
+
+    last = run_cosimulation([drive, plant], wiring, 0.025, 5e-6, record=["plant.x", "drive.ux"],
+                            sink=sink)
+    rows = np.concatenate(chunks)
+    assert np.array_equal(rows, whole.data) and len(rows) == 5001
+    assert firsts == list(np.cumsum([0] + [len(c) for c in chunks[:-1]]))
+    assert len(chunks) > 1 and np.array_equal(last.data, whole.data[-1:])

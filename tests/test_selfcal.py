@@ -20,7 +20,7 @@ from gyro_fmu.selfcal.alarms import CalibrationRefusedError
 from gyro_fmu.selfcal.allan import allan_deviation
 from gyro_fmu.selfcal.estimator import transfer
 from gyro_fmu.selfcal.inprocess import CarrierSimulation
-from gyro_fmu.selfcal.phasors import PhasorError, off_grid, phasors, phasors_and_variances
+from gyro_fmu.selfcal.phasors import PhasorError, phasors, phasors_and_variances
 from gyro_fmu.selfcal.ratetable import rate_table
 from gyro_fmu.selfcal.sequence import FeedForward, SelfCalConfig, self_calibrate
 
@@ -172,31 +172,6 @@ def test_selfcal_reproduces_the_rate_table_without_rotation(clean_calibration) -
     # dxy/(2 kappa) alone would be 1.7e-3: the quadrature leak through the pick-off phase
     # and forcer misalignment is part of the bias, and both methods see it
     assert abs(table.bias - TRUE.dxy / (2 * TRUE.kappa)) > 1e-3
-
-
-def test_off_grid_bins_hold_the_noise_not_the_tones() -> None:
-    """phasors.off_grid: the fitted tones (and their image at -2 omega_ref) leave
-    nothing between the grid's bins; white noise of variance s^2 leaves E|2 Y / n|^2 =
-    4 s^2 / n there (the mean of 20 records x 60 bins: 3 % standard error)."""
-    h, f_ref, spacing, std = 25e-6, 4000.0013, 0.4, 1e-3
-    n = round(4 / spacing / h)  # 4 FFT bins per grid step
-    t0 = 0.7
-    t = t0 + np.arange(n) * h
-    js = np.arange(-10, 11)
-    rng = np.random.default_rng(2)
-    c = rng.normal(size=js.size) + 1j * rng.normal(size=js.size)
-    clean = np.real(sum(ci * np.exp(1j * 2 * math.pi * (f_ref + j * spacing) * t)
-                        for ci, j in zip(c, js, strict=True)))
-    w = 2 * math.pi * f_ref
-    where, off = off_grid(clean, t0, h, w, spacing, js, phasors(clean, t0, h, w, spacing, js))
-    assert where.size == 60 and np.all(where % 1 != 0)
-    assert np.max(np.abs(off)) < 1e-9 * np.max(np.abs(c))
-    power = []
-    for _ in range(20):
-        s = clean + std * rng.standard_normal(n)
-        power.append(np.abs(off_grid(s, t0, h, w, spacing, js,
-                                     phasors(s, t0, h, w, spacing, js))[1]) ** 2)
-    assert np.mean(power) / (4 * std**2 / n) == pytest.approx(1.0, abs=0.1)
 
 
 def test_earth_rate_is_separated_from_bias_by_mode_reversal() -> None:

@@ -10,7 +10,7 @@ from dataclasses import replace
 
 import pytest
 
-import gyro_fmu.selfcal.sequence as sequence
+import gyro_fmu.selfcal.stream as stream
 from gyro_fmu.model.resonator import ResonatorParameters
 from gyro_fmu.selfcal.alarms import CalibrationRefusedError
 from gyro_fmu.selfcal.design import design
@@ -54,13 +54,12 @@ def test_demodulating_at_a_fixed_frequency_is_refused(monkeypatch) -> None:
     # drifting carrier smears the sidebands (misfit 35-2,357 against white noise alone).
     # The smear reaches the bins between the tones too, where the noise model measures
     # it as force noise: the 1-sigmas grow past the targets and it is refused
-    smoothed = sequence.smoothed_nco_phase
+    smoothed = stream.nco_phase
 
     def fixed(*args):
-        omega, drift, slow = smoothed(*args)
-        return omega, drift, slow * 0.0
+        return replace(smoothed(*args), c2=0.0, c3=0.0)
 
-    monkeypatch.setattr(sequence, "smoothed_nco_phase", fixed)
+    monkeypatch.setattr(stream, "nco_phase", fixed)
     with pytest.raises(CalibrationRefusedError) as refused:
         self_calibrate(WARMING, design(WARMING, **SHORT))
     untrusted = refused.value.result
@@ -83,14 +82,14 @@ def test_a_rate_that_changes_between_the_records_is_refused_by_name(monkeypatch)
     # the simulator's history is a steady ramp: make the second record's carrier drift
     # read 200 times the first's (a rate changing between the records; 20 times left
     # a 1-sigma of 4.2e-6 rad/s from the shift, under a third of the target: calibrated)
-    smoothed, calls = sequence.smoothed_nco_phase, []
+    smoothed, calls = stream.nco_phase, []
 
     def changing(*args):
-        omega, drift, slow = smoothed(*args)
-        calls.append(drift)
-        return omega, drift * (200.0 if len(calls) % 2 == 0 else 1.0), slow
+        nco = smoothed(*args)
+        calls.append(nco.drift)
+        return replace(nco, drift=nco.drift * (200.0 if len(calls) % 2 == 0 else 1.0))
 
-    monkeypatch.setattr(sequence, "smoothed_nco_phase", changing)
+    monkeypatch.setattr(stream, "nco_phase", changing)
     with pytest.raises(CalibrationRefusedError, match="rate changed between the records"):
         self_calibrate(WARMING, design(WARMING, **SHORT))
 

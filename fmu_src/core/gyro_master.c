@@ -1,13 +1,12 @@
 /* The master's stepping loop: see gyro_master.h. */
 #include "gyro_master.h"
 
-GyroMasterOutcome gyro_master_steps(double *data, int64_t rows, int64_t ncol,
+GyroMasterOutcome gyro_master_steps(double *data, int64_t row0, int64_t n, int64_t ncol,
                                     double start_time, double h, int64_t first, int64_t last,
                                     const GyroMasterPlan *plan) {
-    const int64_t n = rows - 1;
     for (int64_t k = first; k <= last; k++) {
         const double t = start_time + (double)k * h;
-        double *row = data + k * ncol;
+        double *row = data + (k - row0) * ncol;
         row[0] = t;
         for (int64_t i = 0; i < plan->n_get; i++) {
             const int status = plan->get_fn[i](plan->get_comp[i], plan->get_vrs[i],

@@ -39,9 +39,11 @@ typedef struct {
     int64_t status; /* the fmi2Status it returned */
 } GyroMasterOutcome;
 
-/* Fill rows first..last of data (rows x ncol, row k: t_k = start_time + k h, then the
- * outputs) and step every FMU from each t_k but the final one (k = rows - 1). */
-GyroMasterOutcome gyro_master_steps(double *data, int64_t rows, int64_t ncol,
+/* Fill the rows of points first..last (point k, t_k = start_time + k h, in row k - row0 of
+ * data, ncol columns: t_k, then the outputs) and step every FMU from each t_k but the
+ * final one (k = n, the run's last point). row0 = 0 with n + 1 rows holds the whole run;
+ * a master that hands each chunk on reuses one buffer with row0 = first. */
+GyroMasterOutcome gyro_master_steps(double *data, int64_t row0, int64_t n, int64_t ncol,
                                     double start_time, double h, int64_t first, int64_t last,
                                     const GyroMasterPlan *plan);
 

@@ -1,5 +1,6 @@
-"""The C core's self-calibration resonator, loops and carrier run (fmu_src/core/
-gyro_resonator.h, gyro_loops.h, gyro_carrier.h) as ctypes Structures, same names.
+"""The C core's self-calibration resonator, loops, carrier run and streaming demodulator
+(fmu_src/core/gyro_resonator.h, gyro_loops.h, gyro_carrier.h, gyro_demod.h) as ctypes
+Structures, same names.
 
 The library (gyro_fmu.model.resonator, gyro_fmu.model.loops, gyro_fmu.selfcal.inprocess)
 holds one `Resonator` and one `Loops` and steps them here; GyroResonator.fmu and
@@ -89,6 +90,21 @@ class Loops(ctypes.Structure):
                 ("out", LoopOutputs)]
 
 
+#: gyro_demod.h: GYRO_DEMOD_ORDER, GYRO_DEMOD_CHANNELS.
+DEMOD_ORDER, DEMOD_CHANNELS = 5, 4
+
+
+class Demod(ctypes.Structure):
+    _fields_ = [("omega0", _D), ("h", _D), ("r0", c_int64), ("n", c_int64), ("B", c_int64),
+                ("tail", c_int64), ("drive_limit", _D), ("base", POINTER(_D)),
+                ("theta", POINTER(_D)), ("tail_po", POINTER(_D)), ("kernel", POINTER(_D)),
+                ("acc", _D * 2 * DEMOD_CHANNELS * DEMOD_ORDER),
+                ("acc_theta", _D * DEMOD_ORDER), ("next", c_int64),
+                ("theta_last", _D), ("phase_departure", _D), ("has_theta", c_int32),
+                ("reserved", c_int32), ("worst_phase_error", _D), ("sum_amplitude", _D),
+                ("pinned", c_int64), ("counted", c_int64), ("emitted", c_int64)]
+
+
 _P = POINTER(_D)
 _R, _L = POINTER(Resonator), POINTER(Loops)
 _MSG = [c_char_p, c_size_t]
@@ -115,9 +131,18 @@ FUNCTIONS = {
     "gyro_loop_settings_size": (c_size_t, []),
     "gyro_carrier_run": (c_int, [_R, _L, c_int64, c_int64, _D, _D, _P, c_int64, c_int64,
                                  POINTER(c_int64), *_MSG]),
+    "gyro_demod_kernel": (None, [c_int64, _P]),
+    "gyro_demod_init": (c_int, [POINTER(Demod), _D, _D, c_int64, c_int64, c_int64, c_int64, _D,
+                                _P, _P, _P, _P, *_MSG]),
+    "gyro_demod_first_step": (c_int64, [POINTER(Demod)]),
+    "gyro_demod_last_step": (c_int64, [POINTER(Demod)]),
+    "gyro_demod_feed": (c_int, [POINTER(Demod), _P, c_int64, c_int64, *_MSG]),
+    "gyro_demod_response": (_D, [POINTER(Demod), _D]),
+    "gyro_demod_size": (c_size_t, []),
 }
 _SIZES = {"gyro_resonator_size": Resonator, "gyro_resonator_params_size": ResonatorParams,
-          "gyro_loops_size": Loops, "gyro_loop_settings_size": LoopSettings}
+          "gyro_loops_size": Loops, "gyro_loop_settings_size": LoopSettings,
+          "gyro_demod_size": Demod}
 
 
 @functools.cache

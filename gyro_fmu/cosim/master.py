@@ -63,6 +63,7 @@ def run_cosimulation(
     start_time: float = 0.0,
     record: Sequence[str] | None = None,
     max_result_bytes: int | None = None,
+    sink: Callable[[np.ndarray, int], None] | None = None,
 ) -> CoSimulationResult:
     """Run the coupled FMUs with a fixed communication step and record signals.
 
@@ -70,6 +71,10 @@ def run_cosimulation(
     Returns values at the n + 1 communication points start_time + k * step.
     max_result_bytes: refuse (before allocating) a result table larger than this
     (default: half the physical memory, `result_memory_limit`).
+    sink: instead of keeping them, hand the recorded rows on as they are made,
+    sink(rows, k) with rows[i] the point k + i (time and the recorded columns; a view
+    valid during the call), so memory does not grow with the run; the result then
+    holds the final point only.
     Ctrl-C stops the run between chunks of steps and raises CoSimulationInterrupted
     (a KeyboardInterrupt) carrying the points simulated so far.
     """
@@ -91,7 +96,7 @@ def run_cosimulation(
             outputs = _OutputTable(instances)
             wiring = _wire(outputs, connections)
             columns, getters = _recording(outputs, record)
-            plan = _Plan(instances, outputs, wiring, getters, n_steps, max_result_bytes)
+            plan = _Plan(instances, outputs, wiring, getters, n_steps, max_result_bytes, sink)
             for name, inst in instances.items():
                 targets = map(split_reference, (c.dst for c in connections))
                 connected = {var for inst_name, var in targets if inst_name == name}
@@ -100,7 +105,7 @@ def run_cosimulation(
                 raise CoSimulationInterrupted("co-simulation interrupted during start-up, "
                                               "before the first step")
             k, phase, index, status = plan.run(start_time, step, interrupted)
-            result = CoSimulationResult(tuple(columns), plan.result(k + 1), units_of(instances))
+            result = CoSimulationResult(tuple(columns), plan.result(k), units_of(instances))
             if interrupted():  # Ctrl-C wins over a refusal in the same chunk
                 raise CoSimulationInterrupted(
                     f"co-simulation interrupted at t = {start_time + k * step:.9g} s of "
@@ -199,7 +204,8 @@ class _Plan:
 
     def __init__(self, instances: dict[str, Instance], outputs: _OutputTable, wiring: dict,
                  getters: list[tuple[str, int]], n_steps: int,
-                 max_result_bytes: int | None = None) -> None:
+                 max_result_bytes: int | None = None,
+                 sink: Callable[[np.ndarray, int], None] | None = None) -> None:
         # outputs.add registered (instance, variable) -> position in inst.out_vrs
         recorded = [(name, instances[name].out_vrs[i]) for name, i in getters]
         column: dict[tuple[str, int], int] = {}
@@ -245,8 +251,10 @@ class _Plan:
             _components([inst.slave for inst in instances.values()]),
         )
         self.plan = make_plan(*self.args)
-        check_result_memory(n_steps + 1, ncol, max_result_bytes)
-        self.data = np.empty((n_steps + 1, ncol))
+        self.n_steps, self.sink = n_steps, sink
+        rows = n_steps + 1 if sink is None else min(n_steps + 1, _CHUNK)
+        check_result_memory(rows, ncol, max_result_bytes)
+        self.data = np.empty((rows, ncol))
         wanted = [0] + [column[r] for r in recorded]
         self._wanted = None if wanted == list(range(ncol)) else np.array(wanted, dtype=np.intp)
 
@@ -255,10 +263,14 @@ class _Plan:
         """Every communication step, in chunks of _CHUNK steps, stopping after the chunk
         in which a call was refused or Ctrl-C came (`interrupted`). Returns (index of the
         last row read, phase, call index, status); phase -1 when nothing was refused."""
-        n = self.data.shape[0] - 1
+        n = self.n_steps
         for first in range(0, n + 1, _CHUNK):
+            row0 = 0 if self.sink is None else first
             outcome = step_loop(self.data, start_time, step, first,
-                                min(first + _CHUNK - 1, n), self.plan)
+                                min(first + _CHUNK - 1, n), self.plan, row0, n)
+            if self.sink is not None:  # the rows read, the refused one's included
+                self.sink(self._recorded(self.data[: outcome[0] - first + 1]), first)
+                self.last = (outcome[0], outcome[0] - first)
             if outcome[1] >= 0 or interrupted():
                 return outcome
         return outcome
@@ -279,10 +291,15 @@ class _Plan:
                     f"(fmi2DoStep returned {status_name})")
         return CoSimulationError(f"{what}; it said:\n{logger.recent(name)}")
 
-    def result(self, rows: int) -> np.ndarray:
-        """The first `rows` rows of the recorded columns, in the order asked for (no copy
-        in the default layout)."""
-        data = self.data[:rows]
+    def result(self, k: int) -> np.ndarray:
+        """The recorded columns of points 0..k, in the order asked for (no copy in the
+        default layout); of point k alone when a sink took the rows."""
+        if self.sink is not None:
+            row = self.last[1]
+            return self._recorded(self.data[row: row + 1]).copy()
+        return self._recorded(self.data[: k + 1])
+
+    def _recorded(self, data: np.ndarray) -> np.ndarray:
         return data if self._wanted is None else data[:, self._wanted]
 
 

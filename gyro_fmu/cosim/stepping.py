@@ -43,8 +43,8 @@ class MasterOutcome(Structure):
 def _steps():
     fn = core().gyro_master_steps
     fn.restype = MasterOutcome
-    fn.argtypes = [POINTER(c_double), c_int64, c_int64, c_double, c_double, c_int64, c_int64,
-                   POINTER(MasterPlan)]
+    fn.argtypes = [POINTER(c_double), c_int64, c_int64, c_int64, c_double, c_double, c_int64,
+                   c_int64, POINTER(MasterPlan)]
     return fn
 
 
@@ -65,12 +65,19 @@ def make_plan(get_fn, get_comp, get_vrs, get_n, get_col, set_fn, set_comp, set_v
 
 
 def step_loop(data: np.ndarray, start_time: float, h: float, first: int, last: int,
-              plan: MasterPlan) -> tuple[int, int, int, int]:
-    """Fill data[k] for k = first..last and step every FMU from each of those t_k but the
-    final one (k = len(data) - 1): the master calls it in chunks. Returns (k, phase, index,
-    status) of the first call whose status exceeds fmi2Warning, or (last, -1, -1, 0)."""
+              plan: MasterPlan, row0: int = 0, final: int | None = None
+              ) -> tuple[int, int, int, int]:
+    """Fill data[k - row0] for the points k = first..last and step every FMU from each of
+    those t_k but the run's final one (`final`, default len(data) - 1): the master calls it
+    in chunks, into one array for the whole run (row0 0) or one reused per chunk (row0 =
+    first). Returns (k, phase, index, status) of the first call whose status exceeds
+    fmi2Warning, or (last, -1, -1, 0)."""
     if not (data.flags.c_contiguous and data.dtype == np.float64):
         raise ValueError("the result array must be C-contiguous float64")
-    out = _steps()(_p(data, c_double), data.shape[0], data.shape[1], float(start_time),
-                   float(h), int(first), int(last), ctypes.byref(plan))
+    final = data.shape[0] - 1 if final is None else final
+    if not (0 <= first - row0 and last - row0 < data.shape[0] and last <= final):
+        raise ValueError(f"points {first}..{last} from row {row0} do not fit the "
+                         f"{data.shape[0]} rows of a run ending at point {final}")
+    out = _steps()(_p(data, c_double), int(row0), int(final), data.shape[1],
+                   float(start_time), float(h), int(first), int(last), ctypes.byref(plan))
     return out.k, out.phase, out.index, out.status

@@ -73,7 +73,8 @@ FLAGS = ["-std=c99", "-O2", "-g0", "-s", "-ffp-contract=off", "-fno-fast-math", 
 FMI_LAYER = ("instance.c", "fmi2.c", "fmi3.c")
 FMI_HEADERS = ("fmi2_api.h", "fmi3_api.h", "model.h", "instance.h")
 CORE_SOURCES = ("gyro_text.c", "gyro_rng.c", "gyro_plant.c", "gyro_signals.c", "gyro_observer.c",
-                "gyro_master.c", "gyro_resonator.c", "gyro_loops.c", "gyro_carrier.c")
+                "gyro_master.c", "gyro_resonator.c", "gyro_loops.c", "gyro_carrier.c",
+                "gyro_demod.c")
 #: Core sources every model's binary needs (the FMI layer's messages).
 COMMON_CORE = ("gyro_text.c",)
 GENERATION_TOOL = "gyro_fmu (native C, zig cc)"

@@ -68,22 +68,28 @@ class CalibrationRefusedError(GyroFmuError):
         super().__init__("self-calibration refused: " + "; ".join(self.problems))
 
 
-def lock_problems(mode: int, phase_error: np.ndarray, amplitude: np.ndarray,
-                  gain: np.ndarray, secondary: float, setpoint: float,
-                  drive_limit: float) -> list[str]:
-    """Problems of one closed-loop record (empty when the loops held)."""
-    out = []
+def lock_statistics(phase_error: np.ndarray, amplitude: np.ndarray, gain: np.ndarray,
+                    drive_limit: float) -> tuple[float, float, float]:
+    """(largest |phase error|, mean amplitude, fraction of steps with the drive at its
+    limit) of a closed-loop record held whole; a streamed record carries the same
+    (stream.StreamedRecord), counted by the core as it runs."""
     worst = float(np.max(np.abs(phase_error))) if len(phase_error) else math.nan
+    return worst, float(np.mean(amplitude)), float(np.mean(gain >= drive_limit))
+
+
+def lock_problems(mode: int, worst: float, mean_amp: float, pinned: float, secondary: float,
+                  setpoint: float, drive_limit: float) -> list[str]:
+    """Problems of one closed-loop record (empty when the loops held), from its
+    lock_statistics and the secondary/primary carrier ratio."""
+    out = []
     if not worst <= PLL_PHASE_LIMIT:
         out.append(f"mode {mode}: the PLL did not lock (phase error up to {worst:.2g} rad, "
                    f"limit {PLL_PHASE_LIMIT}): set f_nominal to the resonator's frequency "
                    "(--loop f_nominal=HZ) or widen --loop pll_bandwidth=HZ")
-    mean_amp = float(np.mean(amplitude))
     if not abs(mean_amp / setpoint - 1.0) <= AMPLITUDE_TOLERANCE:
         out.append(f"mode {mode}: the amplitude control did not hold {setpoint:.3g} V (mean "
                    f"{mean_amp:.3g} V): check plant_gain and q_nominal (--loop), or lower "
                    "--loop amplitude=V")
-    pinned = float(np.mean(gain >= drive_limit))
     if pinned > SATURATION_LIMIT:
         out.append(f"mode {mode}: the drive sat at its limit {drive_limit:g} V for "
                    f"{pinned:.0%} of the record: lower --loop amplitude=V or raise "

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -61,6 +62,39 @@ class CarrierSimulation:
             chunk: int = 1 << 20) -> CarrierRecord:
         """Advance by duration (s); record the points from record_from (s, absolute)
         to the end, both included."""
+        n = self._steps_in(duration, Omega_z, record_from)
+        h = self.step
+        k_end = self.k + n
+        r0 = max(self.k, round(record_from / h)) if record_from > 0.0 else self.k
+        if r0 > k_end:
+            raise ResonatorError(f"record_from {record_from!r} s is after the end of the run "
+                                 f"({k_end * h:g} s): record from at most the end")
+        check_result_memory(k_end - r0 + 1, len(COLUMNS))
+        rec = np.zeros((k_end - r0 + 1, len(COLUMNS)))
+        self._step(k_end, rec, r0, chunk)
+        pl, lo = self.plant, self.loops
+        last = rec[k_end - r0]
+        last[0] = k_end * h
+        last[1:10] = lo.out
+        last[10:12] = pl.out
+        return CarrierRecord(rec, h)
+
+    def advance(self, duration: float, sink: Callable[[np.ndarray, int], None],
+                chunk: int = 1 << 14) -> None:
+        """Advance by duration (s), handing each point's row on as it is made, so that
+        memory does not grow with the run: sink(rows, k), rows[i] the point k + i
+        (COLUMNS; a view valid during the call), from the current point to the one
+        before the end (the end is the next advance's first)."""
+        k_end = self.k + self._steps_in(duration)
+        rows = np.zeros((chunk, len(COLUMNS)))
+        while self.k < k_end:
+            k0 = self.k
+            self._step(min(k_end, k0 + chunk), rows, k0, chunk)
+            sink(rows[: self.k - k0], k0)
+
+    def _steps_in(self, duration: float, Omega_z: float | None = None,
+                  record_from: float = 0.0) -> int:
+        """Steps of a run of duration (s), every value checked; Omega_z held from now."""
         if Omega_z is not None:
             self.Omega_z = Omega_z
         h = self.step
@@ -74,14 +108,11 @@ class CarrierSimulation:
         if self.k + n > MAX_STEPS:
             raise ResonatorError(f"duration {duration!r} s is {n:.3g} steps of {h:g} s, more "
                                  f"than the {MAX_STEPS:.3g} a run may take: shorten it")
-        k_end = self.k + n
-        r0 = max(self.k, round(record_from / h)) if record_from > 0.0 else self.k
-        if r0 > k_end:
-            raise ResonatorError(f"record_from {record_from!r} s is after the end of the run "
-                                 f"({k_end * h:g} s): record from at most the end")
-        check_result_memory(k_end - r0 + 1, len(COLUMNS))
-        rec = np.zeros((k_end - r0 + 1, len(COLUMNS)))
-        pl, lo = self.plant, self.loops
+        return n
+
+    def _step(self, k_end: int, rec: np.ndarray, r0: int, chunk: int) -> None:
+        """Step to point k_end, the rows of points from r0 into rec[k - r0]."""
+        pl, lo, h = self.plant, self.loops, self.step
         lib, msg, done = c.selfcal_core(), c.message_buffer(), ctypes.c_int64()
         data = rec.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
         while self.k < k_end:  # in chunks, so that Ctrl-C is seen between them
@@ -92,8 +123,3 @@ class CarrierSimulation:
             self.k += done.value
             if failed:
                 raise ResonatorError(f"{msg.value.decode()} (at t = {self.k * h:g} s)")
-        last = rec[k_end - r0]
-        last[0] = k_end * h
-        last[1:10] = lo.out
-        last[10:12] = pl.out
-        return CarrierRecord(rec, h)

@@ -102,8 +102,9 @@ def rate_table(res: ResonatorParameters, ff: FeedForward, cfg: SelfCalConfig | N
     for rate in rates:
         t_end = (sim.k * sim.step) + dwell
         rec = sim.run(dwell, record_from=t_end - average, Omega_z=rate)
-        problems = alarms.lock_problems(1, rec["phase_error"], rec["amplitude"], rec["gain"],
-                                        0.0, lo.amplitude, lo.drive_limit)
+        stats = alarms.lock_statistics(rec["phase_error"], rec["amplitude"], rec["gain"],
+                                       lo.drive_limit)
+        problems = alarms.lock_problems(1, *stats, 0.0, lo.amplitude, lo.drive_limit)
         out = rec["rate"][:-1]
         if problems or not np.all(np.isfinite(out)):
             raise RateTableError(

@@ -8,6 +8,7 @@ gyro_fmu.model.selfcal_interfaces.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +32,8 @@ def run_fmus(
     seed: int = 0,
     record_from: float = 0.0,
     models_dir: Path | None = None,
-) -> CarrierRecord:
+    sink: Callable[[np.ndarray, int], None] | None = None,
+) -> CarrierRecord | None:
     """Co-simulate GyroResonator.fmu and GyroLoops.fmu from rest for duration (s).
 
     Same arguments and record as CarrierSimulation(resonator, settings, seed, step,
@@ -41,6 +43,8 @@ def run_fmus(
 
     The constant rate Omega_z is the value of the resonator's unconnected input
     Omega_z, set once before initialization (an FMI 2.0 input holds its last value).
+    sink: hand the rows on as they are made instead (CarrierSimulation.advance's
+    sink(rows, k), the points 0 .. the one before the end); returns None then.
     """
     from ..cosim.master import Component, Connection, run_cosimulation
     from ..fmu.build import MODELS_DIR, ensure_current
@@ -60,6 +64,13 @@ def run_fmus(
     connections += [Connection(f"resonator.{v}", f"loops.{v}") for v in ("Vpx", "Vpy")]
     record = [f"loops.{v}" for v in LOOP_OUTPUTS] + ["resonator.Vpx", "resonator.Vpy"]
     n = round(duration / step)
+    if sink is not None:
+        def before_end(rows: np.ndarray, k: int) -> None:
+            sink(rows[: max(0, min(len(rows), n - k))], k)
+
+        run_cosimulation(components, connections, n * step, step, record=record,
+                         sink=before_end)
+        return None
     result = run_cosimulation(components, connections, n * step, step, record=record)
     if result.data.shape != (n + 1, len(COLUMNS)):
         raise RuntimeError(f"the master returned {result.data.shape} samples, "

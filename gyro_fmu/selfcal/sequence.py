@@ -37,15 +37,9 @@ from .estimator import (
     fit_sidebands,
 )
 from .inprocess import DEFAULT_STEP, MAX_STEPS, CarrierRecord, CarrierSimulation
-from .phasors import (
-    carrier_shifts,
-    off_grid,
-    phasors,
-    phasors_and_variances,
-    smoothed_nco_phase,
-    white_phasor_variance,
-)
+from .phasors import carrier_shifts, phasors, phasors_and_variances, white_phasor_variance
 from .result import SelfCalResult
+from .stream import StreamedRecord, mode_phasors, stream_record
 
 
 @dataclass(frozen=True)
@@ -205,16 +199,15 @@ def measure_feedforward(res: ResonatorParameters, cfg: SelfCalConfig) -> FeedFor
 
 
 def record_mode(res: ResonatorParameters, cfg: SelfCalConfig, mode: int,
-                ff: FeedForward, t_start: float = 0.0) -> tuple[ModeData, CarrierRecord]:
+                ff: FeedForward, t_start: float = 0.0) -> tuple[ModeData, StreamedRecord]:
     """Run one mode with sidebands from t_start (s) on the sequence's clock (the
-    resonator's temperature history, ResonatorParameters.later); return its phasors
-    and the raw record."""
+    resonator's temperature history, ResonatorParameters.later), demodulated as it
+    runs (stream.py); return its phasors and the streamed record."""
     lo = replace(cfg.loops, mode=mode, sideband_index=cfg.sideband_index,
                  sideband_spacing=cfg.sideband_spacing, sideband_first=1,
                  sideband_count=cfg.sideband_count, sideband_start=0.0,
                  ff_xx=ff.E[0, 0], ff_xy=ff.E[0, 1], ff_yx=ff.E[1, 0], ff_yy=ff.E[1, 1])
-    rec = simulate(res.later(t_start), lo, cfg, cfg.seed + mode, cfg.settle + cfg.record,
-                   cfg.settle)
+    rec = stream_record(res.later(t_start), lo, cfg, cfg.seed + mode, cfg.settle, cfg.record)
     md = mode_phasors(rec, mode, ff, cfg)
     md.t_center = t_start + cfg.settle + cfg.record / 2
     return md, rec
@@ -222,8 +215,9 @@ def record_mode(res: ResonatorParameters, cfg: SelfCalConfig, mode: int,
 
 def simulate(res: ResonatorParameters, lo: LoopSettings, cfg: SelfCalConfig, seed: int,
              duration: float, record_from: float) -> CarrierRecord:
-    """One run from rest on the configured engine: in process, or the two FMUs through
-    the fmpy master (bit-identical, tests/test_selfcal_fmu.py; about 80 times slower)."""
+    """One run from rest on the configured engine, recorded whole (the loops-off step):
+    in process, or the two FMUs through the master (bit-identical,
+    tests/test_selfcal_fmu.py)."""
     if cfg.engine == "fmu":
         from .run import run_fmus
 
@@ -231,39 +225,6 @@ def simulate(res: ResonatorParameters, lo: LoopSettings, cfg: SelfCalConfig, see
         return run_fmus(res, lo, duration, cfg.step, cfg.Omega_z, seed, record_from, models)
     sim = CarrierSimulation(res, lo, seed=seed, step=cfg.step, Omega_z=cfg.Omega_z)
     return sim.run(duration, record_from=record_from)
-
-
-def mode_phasors(rec: CarrierRecord, mode: int, ff: FeedForward,
-                 cfg: SelfCalConfig) -> ModeData:
-    """Demodulate a sideband record at the carrier and its sidebands (and their
-    intermodulation products up to three times the highest tone)."""
-    h = cfg.step
-    data = rec.data[:-1]
-    cols = CarrierRecord(data, h)
-    t0 = cols.time[0]
-    # products up to 3 times the highest tone: the cubic's (a 0.1 Hz cubic shift left a
-    # misfit of 2.9e-6 V with 2 times, 2.8e-7 with 3, 1.4e-7 with 4; noise-free)
-    harm = np.arange(-3 * cfg.sideband_count, 3 * cfg.sideband_count + 1)
-    omega_osc, drift, slow = smoothed_nco_phase(cols["theta"], h, cfg.sideband_spacing,
-                                                3 * cfg.sideband_count)
-    omega = omega_osc + harm * 2 * math.pi * cfg.sideband_spacing
-    names = ("Vx", "Vy", "Vpx", "Vpy")
-    ph = {n: phasors(cols[n], t0, h, omega_osc, cfg.sideband_spacing, harm, slow)
-          for n in names}
-    off = {n: off_grid(cols[n], t0, h, omega_osc, cfg.sideband_spacing, harm, ph[n], slow)
-           for n in names}  # the noise between the tones (NoiseModel)
-    off_omega = omega_osc + off["Vx"][0] * 2 * math.pi * cfg.sideband_spacing
-
-    def corrected(ph: dict, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        D = np.stack([ph["Vx"], ph["Vy"]], axis=1)
-        PO = np.stack([ph["Vpx"], ph["Vpy"]], axis=1)
-        return D, PO - np.einsum("ij,nj->ni", ff.E, D) * np.exp(-1j * w * h)[:, None]
-
-    D, PO = corrected(ph, omega)
-    off_D, off_PO = corrected({n: v for n, (_, v) in off.items()}, off_omega)
-    amp = float(np.abs(PO[harm == 0, mode - 1][0]))
-    return ModeData(mode, omega, D, PO, omega_osc, amp, drift=drift, off_omega=off_omega,
-                    off_D=off_D, off_PO=off_PO)
 
 
 def self_calibrate(res: ResonatorParameters, cfg: SelfCalConfig | None = None) -> SelfCalResult:
@@ -325,13 +286,13 @@ def _calibrate(res: ResonatorParameters, cfg: SelfCalConfig, ff: FeedForward,
     for m in cfg.modes:
         md, rec = record_mode(res, cfg, m, ff, clock)
         clock += cfg.settle + cfg.record
-        cols = CarrierRecord(rec.data[:-1], cfg.step)
         secondary = float(np.abs(md.PO[md.omega.size // 2, 2 - m])) if m in (1, 2) else 0.0
-        problems += alarms.lock_problems(m, cols["phase_error"], cols["amplitude"],
-                                         cols["gain"], secondary / max(md.amplitude, 1e-300),
+        problems += alarms.lock_problems(m, rec.worst_phase_error, rec.mean_amplitude,
+                                         rec.pinned_fraction,
+                                         secondary / max(md.amplitude, 1e-300),
                                          cfg.loops.amplitude, cfg.loops.drive_limit)
         f_osc = md.omega_osc / (2 * math.pi)
-        noise += [alarms.pickoff_noise(cols[n], cfg.step, f_osc) ** 2 for n in ("Vpx", "Vpy")]
+        noise += [alarms.pickoff_noise(rec.tail[:, i], cfg.step, f_osc) ** 2 for i in (0, 1)]
         data.append(md)
     if problems:  # no fit of records whose loops did not hold
         return None, problems, clock
