@@ -5,9 +5,9 @@ process each, its peak RSS (ru_maxrss of the child) and wall and CPU time.
     python benchmarks/selfcal_record_cost.py [--records 10 20 40 80] [--engines inprocess fmu]
                                              [--set f_x=... ...]
 
-Prints a table (the figures go to docs/self-calibration.md). The record is held whole
-in memory (CarrierRecord), so peak RSS grows with the record length times the sample
-rate; the table says by how much.
+Prints a table (the figures go to docs/self-calibration.md). The records are
+demodulated while they run (selfcal/stream.py), so peak RSS should not grow with the
+record length; the table says by how much it does.
 """
 
 from __future__ import annotations

@@ -114,3 +114,16 @@ def test_calibrations_during_a_warm_up_follow_the_rate_table(tmp_path) -> None:
     assert [p.name for p in paths] == ["warmup.csv", "summary.json", "warmup.png"]
     assert len((tmp_path / "warmup.csv").read_text().splitlines()) == 3
 
+
+
+def test_a_lot_with_matched_modes_holds_the_same_resonators_else() -> None:
+    from gyro_fmu.selfcal.lot import LotModel
+
+    split, matched = LotModel().draw(40), LotModel(split_zero=0.25).draw(40)
+    zero = [b["instrument"]["f_y"] == b["instrument"]["f_x"] for b in matched]
+    assert 4 <= sum(zero) <= 18  # 10 expected
+    for a, b, z in zip(split, matched, zero, strict=True):
+        assert a["instrument"]["f_y"] != a["instrument"]["f_x"]
+        rest = {k: v for k, v in b["instrument"].items() if k != "f_y"}
+        assert rest == {k: v for k, v in a["instrument"].items() if k != "f_y"}
+        assert z or b["instrument"]["f_y"] == a["instrument"]["f_y"]

@@ -50,6 +50,9 @@ class LotModel:
     f_offset: float = 1.0e-3  #: relative, instrument frequency off the design (uniform)
     Q_offset: float = 0.2  #: relative, instrument Q off the design (uniform)
     split_max: float = 1.0  #: Hz, mode split f_y - f_x, uniform in [-max, max]
+    #: fraction of the lot whose modes are matched exactly (f_y = f_x; drawn apart, so
+    #: the rest of the lot stays the same resonators)
+    split_zero: float = 0.0
     Q_mismatch: float = 0.1  #: relative, Q_y off Q_x (uniform)
     bias_rate: float = 2.0e-3  #: rad/s, 1-sigma of dxy / (2 kappa)
     quadrature_rate: float = 0.2  #: rad/s, 1-sigma of kxy / (2 kappa omega)
@@ -78,6 +81,7 @@ class LotModel:
         rng = np.random.default_rng(self.seed)
         thermal = np.random.default_rng([self.seed, 1])
         brownian = np.random.default_rng([self.seed, 2])
+        matched = np.random.default_rng([self.seed, 3])
         out = []
         for _ in range(n):
             f = math.exp(rng.uniform(math.log(self.f_min), math.log(self.f_max)))
@@ -126,6 +130,8 @@ class LotModel:
                 low, high = math.log(self.m_modal_min or self.m_modal_max), \
                     math.log(self.m_modal_max)
                 instrument.update(m_modal=math.exp(low + mass * (high - low)))
+            if matched.uniform(0.0, 1.0) < self.split_zero:
+                instrument["f_y"] = instrument["f_x"]
             instrument["phi_x"] = max(instrument["phi_x"], 0.0)
             instrument["phi_y"] = max(instrument["phi_y"], 0.0)
             out.append({"nominal": nominal, "instrument": instrument})
