@@ -17,7 +17,14 @@ from gyro_fmu.model.resonator import ResonatorParameters
 from gyro_fmu.selfcal import sequence
 from gyro_fmu.selfcal.alarms import CalibrationRefusedError, pickoff_noise
 from gyro_fmu.selfcal.design import design, loops_for, plant_gain, spacing_for, step_for
-from gyro_fmu.selfcal.sequence import choose_record, self_calibrate
+from gyro_fmu.selfcal.ratetable import rate_table
+from gyro_fmu.selfcal.sequence import (
+    MAX_MODULATION,
+    FeedForward,
+    choose_excitation,
+    choose_record,
+    self_calibrate,
+)
 
 TRUE = ResonatorParameters()
 #: Short records (5 s, 3 tones 0.4 Hz apart), fixed length: a few seconds per calibration.
@@ -118,6 +125,41 @@ def test_choose_record_scales_as_the_inverse_square() -> None:
     assert choose_record(pilot, cfg) == 45.0
     pilot.sigma_bias = 100 * cfg.target_bias
     assert choose_record(pilot, cfg) == cfg.max_record
+
+
+def test_the_index_is_raised_into_the_drive_headroom_before_the_record_grows() -> None:
+    cfg = design(TRUE)
+    pilot = self_calibrate(TRUE, cfg)
+    assert 0.1 < pilot.drive_use < 0.6 and pilot.sideband_index == cfg.sideband_index
+    pilot.sigma_bias = 2 * cfg.target_bias
+    top = MAX_MODULATION / cfg.sideband_count
+    pilot.drive_use = 0.4  # room for 2.5x the index: capped at the modulation's limit
+    record, index = choose_excitation(pilot, cfg)
+    assert index == pytest.approx(top)
+    # the 1-sigma falls as 1 / index: (2 x 0.04 / 0.0714)^2 = 1.25 x 1.1 -> 15 s
+    assert record == 15.0
+    pilot.drive_use = 0.8  # room for 1.25x: 0.05, (2 x 0.8)^2 x 1.1 = 2.8 -> 30 s
+    assert choose_excitation(pilot, cfg) == (30.0, pytest.approx(0.05))
+    for used, fixed in ((1.2, cfg), (0.4, replace(cfg, auto_index=False))):
+        pilot.drive_use = used  # no room, or the user's index: the record alone
+        assert choose_excitation(pilot, fixed) == (45.0, cfg.sideband_index)
+    pilot.sigma_bias = 0.5 * cfg.target_bias  # in target: nothing raised
+    assert choose_excitation(pilot, cfg) == (cfg.record, cfg.sideband_index)
+
+
+def test_force_noise_calibrates_with_a_raised_index_and_shorter_records() -> None:
+    """m_modal 1e-9 kg on the preset: the 0.04 index needed 105 s records; raised into
+    the drive's headroom (0.071, the drive's peak then at 0.54 of its limit) 35 s do,
+    and the answer stays within 3 sigma of the rate table."""
+    res = replace(TRUE, m_modal=1e-9)
+    cfg = design(res)
+    result = self_calibrate(res, cfg)
+    assert result.sideband_index == pytest.approx(MAX_MODULATION / cfg.sideband_count)
+    assert result.record <= 50.0 and result.drive_use < 1.0
+    ff = FeedForward(result.feedthrough, result.rho, result.feedthrough * 0)
+    table = rate_table(res.without_noise(), ff, cfg)
+    assert abs(result.bias - table.bias) < 3 * result.sigma_bias
+    assert abs(result.scale_factor / table.scale_factor - 1) * 1e6 < 3 * result.sigma_sf_ppm
 
 
 def test_the_noise_estimate_reads_the_white_level() -> None:

@@ -125,6 +125,8 @@ def test_lock_statistics_nco_phase_and_tail_are_the_records() -> None:
     assert rec.worst_phase_error == np.max(np.abs(part[:, COL["phase_error"]]))
     assert rec.mean_amplitude == pytest.approx(np.mean(part[:, COL["amplitude"]]), rel=1e-12)
     assert rec.pinned_fraction == np.mean(part[:, COL["gain"]] >= 5.0)
+    assert rec.gain_peak == np.max(part[:, COL["gain"]])
+    assert rec.gain_mean == pytest.approx(np.mean(part[:, COL["gain"]]), rel=1e-9, abs=1e-12)
     assert np.array_equal(rec.tail, part[-len(rec.tail):, [COL["Vpx"], COL["Vpy"]]])
     # the NCO phase less omega0 t, unwrapped and filtered like the channels
     t = rows[dem.first_step:, COL["time"]]
@@ -223,5 +225,5 @@ def test_the_fmu_path_streams_the_same_record(models_dir) -> None:
                         cfg.settle, cfg.record)
     for name in ("base", "theta", "tail"):
         assert np.array_equal(getattr(ours, name), getattr(fmu, name)), name
-    assert (ours.worst_phase_error, ours.mean_amplitude, ours.pinned_fraction) == \
-        (fmu.worst_phase_error, fmu.mean_amplitude, fmu.pinned_fraction)
+    stats = ("worst_phase_error", "mean_amplitude", "pinned_fraction", "gain_peak", "gain_mean")
+    assert [getattr(ours, s) for s in stats] == [getattr(fmu, s) for s in stats]

@@ -74,6 +74,9 @@ static void record_statistics(GyroDemod *d, const double *row, int64_t k) {
         d->worst_phase_error = pe;
     d->sum_amplitude += row[COL_AMPLITUDE];
     d->pinned += row[COL_GAIN] >= d->drive_limit;
+    if (!isnan(d->gain_peak) && !(row[COL_GAIN] <= d->gain_peak))
+        d->gain_peak = row[COL_GAIN]; /* a NaN sticks */
+    d->sum_gain += row[COL_GAIN];
     d->counted++;
     const int64_t t0 = d->r0 + d->n - d->tail;
     if (k >= t0) {

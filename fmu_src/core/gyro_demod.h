@@ -15,8 +15,8 @@
  * The loops' NCO phase goes through the same filter, as its departure from omega0 t
  * (unwrapped): its ripple at twice the carrier, which a plain subsample would alias to
  * near 0 Hz and read as a frequency offset, is rejected with the image. Beside them, per
- * record step: the largest |phase_error|, the sum of the amplitude, the steps
- * with the drive gain at its limit, and the last `tail` steps of Vpx and Vpy at full rate
+ * record step: the largest |phase_error|, the sum of the amplitude, the largest drive
+ * gain and its sum, the steps with the gain at its limit, and the last `tail` steps of Vpx and Vpy at full rate
  * (the pick-off noise above the carrier, alarms.pickoff_noise). */
 #ifndef GYRO_DEMOD_H
 #define GYRO_DEMOD_H
@@ -47,7 +47,7 @@ typedef struct {
     int64_t next;       /* the step expected next */
     double theta_last, phase_departure;
     int32_t has_theta, reserved;
-    double worst_phase_error, sum_amplitude;
+    double worst_phase_error, sum_amplitude, gain_peak, sum_gain;
     int64_t pinned, counted, emitted;
 } GyroDemod;
 

@@ -102,6 +102,7 @@ class Demod(ctypes.Structure):
                 ("acc_theta", _D * DEMOD_ORDER), ("next", c_int64),
                 ("theta_last", _D), ("phase_departure", _D), ("has_theta", c_int32),
                 ("reserved", c_int32), ("worst_phase_error", _D), ("sum_amplitude", _D),
+                ("gain_peak", _D), ("sum_gain", _D),
                 ("pinned", c_int64), ("counted", c_int64), ("emitted", c_int64)]
 
 

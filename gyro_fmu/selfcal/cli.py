@@ -82,6 +82,8 @@ def _config(args: argparse.Namespace, res: ResonatorParameters) -> SelfCalConfig
             values[name] = value
     if getattr(args, "record", None) is not None:
         values["auto_record"] = False  # the user's record length, checked, not changed
+    if getattr(args, "sideband_index", None) is not None:
+        values["auto_index"] = False  # the user's index, not raised
     return design(res, loops=_loop_overrides(args), **values)
 
 
@@ -144,9 +146,12 @@ def _cmd_selfcal(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     summary = {"resonator": res.as_dict(), "config": cfg.as_dict(), **result.summary()}
     s = result.summary()
+    raised = " (raised into the drive's headroom)" if \
+        result.sideband_index > cfg.sideband_index else ""
     print(f"self-calibration ({len(cfg.modes)} modes, {result.record:g} s records"
           f"{' (chosen for the targets)' if cfg.auto_record else ''}, "
-          f"{cfg.sideband_count} sidebands, {cfg.engine}): {s['wall_time_s']:.1f} s wall")
+          f"{cfg.sideband_count} sidebands of index {result.sideband_index:.3g}{raised}, "
+          f"{cfg.engine}): {s['wall_time_s']:.1f} s wall")
     print(f"  bias          {s['bias_rad_s']:+.4e} rad/s  (1 sigma {s['sigma_bias_rad_s']:.1e})")
     print(f"  scale factor  {s['scale_factor_V_per_rad_s']:.6f} V/(rad/s)  (1 sigma "
           f"{s['sigma_scale_factor_V_per_rad_s'] / s['scale_factor_V_per_rad_s'] * 1e6:.1f} ppm)")

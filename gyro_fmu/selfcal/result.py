@@ -41,6 +41,10 @@ class SelfCalResult:
     #: the parts of the 1-sigmas from the shift between the records (phasors.carrier_shifts)
     sigma_bias_shift: float = 0.0
     sigma_scale_factor_shift: float = 0.0
+    sideband_index: float = math.nan  #: the modulation index of each tone used
+    #: the drive gain's largest excursion above its mean, as a fraction of the room up
+    #: to sequence.DRIVE_TARGET of the limit (the larger of the two modes')
+    drive_use: float = math.nan
 
     @property
     def sigma_sf_ppm(self) -> float:
@@ -50,6 +54,7 @@ class SelfCalResult:
     def summary(self) -> dict:
         return {
             "record_s": self.record, "misfit_ratio": self.misfit_ratio,
+            "sideband_index": self.sideband_index, "drive_use": self.drive_use,
             "cubic_terms_fitted": self.cubic,
             "pickoff_noise_estimate_V": self.pickoff_noise,
             "bias_rad_s": self.bias, "sigma_bias_rad_s": self.sigma_bias,

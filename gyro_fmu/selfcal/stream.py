@@ -59,6 +59,8 @@ class StreamedRecord:
     worst_phase_error: float  #: rad, largest |phase_error| over the record
     mean_amplitude: float  #: V, the loops' amplitude output, averaged
     pinned_fraction: float  #: of the steps with the drive gain at its limit
+    gain_peak: float  #: V, the largest drive gain over the record
+    gain_mean: float  #: V, its mean
     demod: c.Demod  #: the core's demodulator (its response)
 
     @property
@@ -144,7 +146,7 @@ class Demodulator:
         base = self.base[..., 0] + 1j * self.base[..., 1]
         return StreamedRecord(self.h, self.r0, self.n, self.B, d.omega0, base, self.theta,
                               self.tail, d.worst_phase_error, d.sum_amplitude / d.counted,
-                              d.pinned / d.counted, d)
+                              d.pinned / d.counted, d.gain_peak, d.sum_gain / d.counted, d)
 
 
 def _ptr(a: np.ndarray) -> ctypes.POINTER(ctypes.c_double):
