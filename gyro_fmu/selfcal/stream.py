@@ -139,7 +139,8 @@ class Demodulator:
             raise ResonatorError(msg.value.decode())
 
     def result(self) -> StreamedRecord:
-        d = self.core
+        d = c.Demod.from_buffer_copy(self.core)  # its arrays stay here: no pointers out
+        d.base = d.theta = d.tail_po = d.kernel = None
         if d.emitted != len(self.base) or d.counted != self.n:
             raise ResonatorError(f"the record ended early: {d.emitted} of {len(self.base)} "
                                  f"demodulated samples, {d.counted} of {self.n} steps")
