@@ -149,13 +149,13 @@ def test_the_index_is_raised_into_the_drive_headroom_before_the_record_grows() -
 
 def test_force_noise_calibrates_with_a_raised_index_and_shorter_records() -> None:
     """m_modal 1e-9 kg on the preset: the 0.04 index needed 105 s records; raised into
-    the drive's headroom (0.071, the drive's peak then at 0.54 of its limit) 35 s do,
-    and the answer stays within 3 sigma of the rate table."""
+    the room the pilot shows (0.067: the mean amplitude's departure, 1 % at 0.04, is
+    the tighter bound) 35-40 s do, and the answer stays within 3 sigma of the table."""
     res = replace(TRUE, m_modal=1e-9)
     cfg = design(res)
     result = self_calibrate(res, cfg)
-    assert result.sideband_index == pytest.approx(MAX_MODULATION / cfg.sideband_count)
-    assert result.record <= 50.0 and result.drive_use < 1.0
+    assert 0.06 < result.sideband_index <= MAX_MODULATION / cfg.sideband_count
+    assert result.record <= 50.0 and result.drive_use < 1.2
     ff = FeedForward(result.feedthrough, result.rho, result.feedthrough * 0)
     table = rate_table(res.without_noise(), ff, cfg)
     assert abs(result.bias - table.bias) < 3 * result.sigma_bias

@@ -42,8 +42,8 @@ class SelfCalResult:
     sigma_bias_shift: float = 0.0
     sigma_scale_factor_shift: float = 0.0
     sideband_index: float = math.nan  #: the modulation index of each tone used
-    #: the drive gain's largest excursion above its mean, as a fraction of the room up
-    #: to sequence.DRIVE_TARGET of the limit (the larger of the two modes')
+    #: the drive gain's largest excursion about its mean, as a fraction of its room
+    #: (sequence.drive_use; the larger of the two modes')
     drive_use: float = math.nan
 
     @property

@@ -266,6 +266,24 @@ def self_calibrate(res: ResonatorParameters, cfg: SelfCalConfig | None = None) -
 MAX_MODULATION = 0.5
 #: fraction of the drive limit the gain's peak may reach under a raised index
 DRIVE_TARGET = 0.8
+#: departure of the mean amplitude from its setpoint a raised index may bring (half
+#: the lock alarm's tolerance)
+AMPLITUDE_ROOM = 0.5 * alarms.AMPLITUDE_TOLERANCE
+
+
+def drive_use(rec: StreamedRecord, cfg: SelfCalConfig) -> float:
+    """How much of its room the sidebands take, on a scale where the index may grow as
+    1 / use: the larger of the drive gain's excursion, (peak - mean) over
+    (DRIVE_TARGET limit - mean), which grows as the index, and the mean amplitude's
+    departure from its setpoint over AMPLITUDE_ROOM, to the power 1/3: it grows as the
+    index cubed (preset: 1.0 % at 0.04, 5.6 % at 0.071; a Q 5e4 resonator at 3.7 kHz:
+    3.9 % and 12.7 %, which the lock alarm refused)."""
+    lo = cfg.loops
+    up = DRIVE_TARGET * lo.drive_limit - rec.gain_mean
+    departure = abs(rec.mean_amplitude / lo.amplitude - 1.0)
+    if not up > 0.0:
+        return math.inf
+    return max((rec.gain_peak - rec.gain_mean) / up, (departure / AMPLITUDE_ROOM) ** (1 / 3))
 
 
 def choose_excitation(result: SelfCalResult, cfg: SelfCalConfig) -> tuple[float, float]:
@@ -274,7 +292,7 @@ def choose_excitation(result: SelfCalResult, cfg: SelfCalConfig) -> tuple[float,
     The 1-sigmas fall as 1 / index (measured on a Q 9.35e3 resonator with force noise:
     1.11e-4 rad/s at 0.04, 5.7e-5 at 0.08) and the drive's excursion above its mean
     grows as the index: with cfg.auto_index the index is first raised until the
-    pilot's largest excursion would reach DRIVE_TARGET of the limit (at most
+    pilot's largest excursion would reach DRIVE_TARGET of its room (drive_use; at most
     MAX_MODULATION / sideband_count), then the record is chosen for what is left
     (choose_record). self_calibrate asks again after each record (at most 3 times)."""
     need = max((result.sigma_bias / cfg.target_bias) ** 2,
@@ -329,8 +347,7 @@ def _calibrate(res: ResonatorParameters, cfg: SelfCalConfig, ff: FeedForward,
                                          cfg.loops.amplitude, cfg.loops.drive_limit)
         f_osc = md.omega_osc / (2 * math.pi)
         noise += [alarms.pickoff_noise(rec.tail[:, i], cfg.step, f_osc) ** 2 for i in (0, 1)]
-        room = DRIVE_TARGET * cfg.loops.drive_limit - rec.gain_mean  # the excursion's room
-        drive.append((rec.gain_peak - rec.gain_mean) / room if room > 0.0 else math.inf)
+        drive.append(drive_use(rec, cfg))
         data.append(md)
     if problems:  # no fit of records whose loops did not hold
         return None, problems, clock
