@@ -1,0 +1,58 @@
+"""Every script of examples/ (the tutorials include them) runs as a user would run it,
+from an empty folder, in a fresh process, with the shortest arguments that still show
+its point; each checks its own result (exit code) and prints its figures."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def run(argv: list[str], cwd: Path) -> str:
+    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
+    proc = subprocess.run(argv, cwd=cwd, env=env, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    return proc.stdout
+
+
+def test_every_example_is_run_here() -> None:
+    tested = {"observer_in_fmpy_loop.py", "cosimulate_from_python.py", "self_calibrate.py",
+              "validate_in_ci.sh"}
+    assert {p.name for p in EXAMPLES.iterdir() if p.suffix in (".py", ".sh")} == tested
+
+
+def test_observer_in_a_plain_fmpy_loop(tmp_path: Path) -> None:
+    run([sys.executable, "-m", "gyro_fmu.cli", "fmus", "--dest", "fmus", "--fmi", "2"], tmp_path)
+    out = run([sys.executable, str(EXAMPLES / "observer_in_fmpy_loop.py"), "--fmus", "fmus",
+               "--rate", "0.3", "--stop-time", "0.02"], tmp_path)
+    rate, sigma = map(float, re.search(r"Omega_hat (\S+) rad/s, 1-sigma (\S+),", out).groups())
+    assert abs(rate - 0.3) < 4 * sigma < 0.01  # the script's own check, made visible
+
+
+def test_cosimulate_from_python(tmp_path: Path) -> None:
+    out = run([sys.executable, str(EXAMPLES / "cosimulate_from_python.py"), "--stop-time",
+               "0.01"], tmp_path)
+    assert (tmp_path / "models" / "GyroObserver.fmu").is_file()
+    rate, sigma = map(float, re.search(r"Omega_hat (\S+) rad/s \(1-sigma (\S+)\)", out).groups())
+    assert abs(rate - 1.0) < 4 * sigma
+
+
+def test_self_calibrate(tmp_path: Path) -> None:
+    out = run([sys.executable, str(EXAMPLES / "self_calibrate.py")], tmp_path)
+    d_bias = float(re.search(r"(\S+) off the rate table\n", out).group(1))
+    d_sf = float(re.search(r"(\S+) ppm off the rate table", out).group(1))
+    assert abs(d_bias) < 7.27e-5 and abs(d_sf) < 100.0
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="a bash script")
+def test_validate_in_ci(tmp_path: Path) -> None:
+    out = run(["bash", str(EXAMPLES / "validate_in_ci.sh"), "my-fmus"], tmp_path)
+    assert "all outputs match their reference results" in out
+    assert len(list((tmp_path / "my-fmus").glob("*.fmu"))) == 6
