@@ -228,6 +228,23 @@ def test_every_platform_is_in_the_fmu_with_its_sources(version: int) -> None:
             assert "sources/buildDescription.xml" in names
 
 
+@pytest.mark.parametrize("version", VERSIONS)
+def test_every_fmu_carries_its_readme_with_the_equations(version: int) -> None:
+    """documentation/readme.md is the model's readme (fmu_src/models/<Model>/readme.md,
+    which the docs site shows too), linked from documentation/index.html, and it quotes
+    the patent's equation numbers."""
+    import zipfile
+
+    from gyro_fmu.fmu.native import NATIVE_INTERFACES, sources_root
+
+    for name in NATIVE_INTERFACES:
+        readme = (sources_root() / "models" / name / "readme.md").read_bytes()
+        assert readme.startswith(f"# {name}\n".encode()) and b"\n## Equations\n" in readme
+        with zipfile.ZipFile(prebuilt_fmu(name, version)) as z:
+            assert z.read("documentation/readme.md") == readme
+            assert b'href="readme.md"' in z.read("documentation/index.html")
+
+
 def test_the_sources_in_the_fmu_compile_as_a_host_would(tmp_path) -> None:
     """A host that compiles the FMU from sources/ (FMI 2.0 SourceFiles) gets a library
     that reproduces the shipped binary's outputs."""

@@ -361,7 +361,8 @@ def write_fmu(interface: FmuInterface, fmi_version: int, binaries: dict[str, Pat
                 z.writestr(info, data, zipfile.ZIP_DEFLATED)
         if reference:
             write_reference(Path(temp), interface.reference_inputs)
-        add_documentation(Path(temp))
+        add_documentation(Path(temp), sources_root() / "models" / interface.identifier /
+                          "readme.md")
         os.chmod(temp, 0o644)
         os.replace(temp, final)
     except BaseException:
