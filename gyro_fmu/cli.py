@@ -111,7 +111,10 @@ def main(argv: list[str] | None = None) -> int:
     debug = "--debug" in argv  # anywhere on the line, before or after the command
     _terminate_as_interrupt()
     try:  # the imports behind the parser take a second: Ctrl-C there is an interrupt too
-        args = parser().parse_args([a for a in argv if a != "--debug"])
+        try:  # argparse's own refusal (an option's type, --help, --version): its code
+            args = parser().parse_args([a for a in argv if a != "--debug"])
+        except SystemExit as exc:
+            return exc.code if isinstance(exc.code, int) else 2
         from .model.parameters import UnstablePlantWarning
 
         with warnings.catch_warnings():

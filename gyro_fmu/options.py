@@ -68,3 +68,29 @@ band = number(0.0, 1.0, low_open=True, high_open=True,
 latitude = number(-90.0, 90.0, what="a latitude in [-90, 90] degrees")
 count = whole(1, what="a whole number >= 1")
 seed = whole(0, SEED_MAX, what=f"a seed in [0, {SEED_MAX}]")
+
+
+def assignment(known: tuple[str, ...] | Callable[[], tuple[str, ...]] | None = None,
+               example: str = "kxy=7.1e7", what: str = "a known name"
+               ) -> Callable[[str], tuple[str, float]]:
+    """The one parser of every repeatable `--option NAME=VALUE`: (name, value), the value
+    a number, the name one of `known` when given (a callable is asked only when the
+    option is used, so the parser imports nothing for it). `dict(args.option or ())`
+    collects them, the last of a name winning."""
+
+    def parse(text: str) -> tuple[str, float]:
+        name, sep, value = text.partition("=")
+        name = name.strip()
+        if not sep:
+            raise argparse.ArgumentTypeError(f"{text!r} must read NAME=VALUE, e.g. {example}")
+        names = known() if callable(known) else known
+        if names is not None and name not in names:
+            raise argparse.ArgumentTypeError(f"{text!r}: {name!r} is not {what}; known: "
+                                             f"{', '.join(names)}")
+        try:
+            return name, float(value)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r}: {value!r} is not a number") from None
+
+    parse.__name__ = "NAME=VALUE"
+    return parse

@@ -25,28 +25,20 @@ if TYPE_CHECKING:  # the parser is built without the calibration's stack (scipy.
 RESONATOR_NAMES = tuple(f.name for f in fields(ResonatorParameters))
 
 
-def name_values(items: list[str] | None, flag: str, known: tuple[str, ...],
-                example: str, what: str) -> dict[str, float]:
-    """{NAME: VALUE} from repeated `flag NAME=VALUE` options; each bad item is named."""
-    out: dict[str, float] = {}
-    for item in items or []:
-        name, sep, value = item.partition("=")
-        name = name.strip()
-        if not sep:
-            raise ParameterError(f"{flag} {item!r} must read NAME=VALUE, e.g. {example}")
-        if name not in known:
-            raise ParameterError(f"{flag} {item!r}: {name!r} is not {what}; "
-                                 f"known: {', '.join(known)}")
-        try:
-            out[name] = float(value)
-        except ValueError:
-            raise ParameterError(f"{flag} {item!r}: {value!r} is not a number") from None
-    return out
+def _user_loops() -> tuple[str, ...]:
+    from .design import USER_LOOPS
+
+    return USER_LOOPS
+
+
+def _lot_fields() -> tuple[str, ...]:
+    from .lot import LotModel
+
+    return tuple(sorted({f.name for f in fields(LotModel)} - {"seed"}))
 
 
 def _resonator(args: argparse.Namespace) -> ResonatorParameters:
-    changes = name_values(args.set, "--set", RESONATOR_NAMES, "Q_x=3e4",
-                          "a resonator parameter")
+    changes = dict(args.set or ())
     if args.noise is not None:
         changes["noise"] = args.noise
     res = replace(ResonatorParameters(), **changes)
@@ -59,11 +51,7 @@ def _resonator(args: argparse.Namespace) -> ResonatorParameters:
 
 
 def _loop_overrides(args: argparse.Namespace) -> dict[str, float]:
-    from .design import USER_LOOPS
-
-    return name_values(getattr(args, "loop", None), "--loop", USER_LOOPS,
-                       "pll_bandwidth=30", "a loop setting the sequence leaves to you "
-                       "(sidebands: --index, --spacing, --sidebands)")
+    return dict(getattr(args, "loop", None) or ())
 
 
 def _config(args: argparse.Namespace, res: ResonatorParameters) -> SelfCalConfig:
@@ -112,6 +100,7 @@ def _feedforward_from(path: Path) -> FeedForward:
 
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   type=options.assignment(RESONATOR_NAMES, "Q_x=3e4", "a resonator parameter"),
                    help="resonator parameter (f_x, Q_x, dxy, kxy, Px, phi_y, Exy, ...)")
     p.add_argument("--noise", type=options.non_negative,
                    help="pick-off noise, V per sample (2.5e-4: Allan deviation 13 deg/h at 1 s)")
@@ -120,6 +109,9 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--latitude", type=options.latitude,
                    help="deg: earth rate times sin(latitude) about the sense axis")
     p.add_argument("--loop", action="append", metavar="NAME=VALUE",
+                   type=options.assignment(_user_loops, "pll_bandwidth=30",
+                                           "a loop setting the sequence leaves to you "
+                                           "(sidebands: --index, --spacing, --sidebands)"),
                    help="loop setting instead of the one designed for the resonator "
                         "(f_nominal, q_nominal, plant_gain, amplitude, pll_bandwidth, ...)")
     p.add_argument("--seed", type=options.seed, default=1, help="noise seed")
@@ -227,9 +219,7 @@ def _cmd_lot(args: argparse.Namespace) -> int:
 
     if args.n < 1:
         raise ParameterError(f"-n {args.n!r} must be at least 1")
-    model_fields = tuple(sorted({f.name for f in fields(LotModel)} - {"seed"}))
-    changes = name_values(args.model, "--model", model_fields, "Q_max=1e5",
-                          "a tolerance-model field")
+    changes = dict(args.model or ())
     res = run_lot(args.n, LotModel(seed=args.seed, **changes), args.scheduler, args.workers,
                   progress=not args.quiet)
     paths = write_lot(res, Path(args.out or "runs/selfcal_lot"), figures=not args.no_figures)
@@ -324,6 +314,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     lot.add_argument("-n", type=options.count, default=100, help="resonators (default 100)")
     lot.add_argument("--seed", type=options.seed, default=2026, help="seed of the draw")
     lot.add_argument("--model", action="append", metavar="NAME=VALUE",
+                     type=options.assignment(_lot_fields, "Q_max=1e5",
+                                             "a tolerance-model field"),
                      help="tolerance model field (f_min, Q_max, split_max, "
                           "cubic_shift_max, noise_density, ...; see selfcal/lot.py)")
     lot.add_argument("--workers", type=options.count,

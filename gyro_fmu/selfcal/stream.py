@@ -94,11 +94,14 @@ def decimation(n: int, h: float, band: float) -> int:
 
 class Demodulator:
     """The core's demodulator for a record of n steps of h from step r0 (rows fed in
-    order by `feed`; the mixing frequency is the NCO's in the first row it reads)."""
+    order by `feed`; the mixing frequency is the NCO's in the first row it reads, or
+    omega_nominal when that is no number)."""
 
-    def __init__(self, h: float, r0: int, n: int, band: float, drive_limit: float) -> None:
+    def __init__(self, h: float, r0: int, n: int, band: float, drive_limit: float,
+                 omega_nominal: float = 0.0) -> None:
         self.B = decimation(n, h, band)
         self.h, self.r0, self.n, self.drive_limit = h, r0, n, drive_limit
+        self.omega_nominal = omega_nominal  # mixing frequency when the NCO's is no number
         m = n // self.B
         self.base = np.zeros((m, c.DEMOD_CHANNELS, 2))
         self.theta = np.zeros(m)
@@ -126,8 +129,10 @@ class Demodulator:
                 raise ResonatorError(f"the demodulator's first step {self.first_step} was "
                                      f"not fed (rows from {k})")
             msg = c.message_buffer()
+            omega0 = float(rows[i, _OMEGA])  # a diverged loop's NaN: the lock alarm names it
             if self.lib.gyro_demod_init(
-                    ctypes.byref(self.core), float(rows[i, _OMEGA]), self.h, self.r0, self.n,
+                    ctypes.byref(self.core), omega0 if math.isfinite(omega0) else
+                    self.omega_nominal, self.h, self.r0, self.n,
                     self.B, len(self.tail), self.drive_limit, _ptr(self.base),
                     _ptr(self.theta), _ptr(self.tail), _ptr(self.kernel), msg, len(msg)):
                 raise ResonatorError(msg.value.decode())
@@ -162,7 +167,7 @@ def stream_record(res: ResonatorParameters, lo: LoopSettings, cfg: SelfCalConfig
     h = cfg.step
     r0, n = round(settle / h), round(record / h)
     band = 3 * lo.sideband_count * lo.sideband_spacing + WANDER
-    dem = Demodulator(h, r0, n, band, lo.drive_limit)
+    dem = Demodulator(h, r0, n, band, lo.drive_limit, 2 * math.pi * lo.f_nominal)
     steps = dem.last_step + 1  # points 0 .. last_step are read
     if cfg.engine == "fmu":
         from .run import run_fmus

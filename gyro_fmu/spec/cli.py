@@ -16,7 +16,6 @@ from pathlib import Path
 from .. import options
 from ..model.parameters import PARAMETER_NAMES, PRESETS, ParameterError
 from ..outputs import holds_out_folder, save_figure, write_json
-from ..selfcal.cli import name_values
 
 
 def _frequencies(text: str) -> tuple[float, ...]:
@@ -27,18 +26,22 @@ def _frequencies(text: str) -> tuple[float, ...]:
                                          "e.g. 10,100,1000") from None
 
 
-def config_from(args: argparse.Namespace):
+def _tuning_names() -> tuple[str, ...]:
     from dataclasses import fields
 
     from ..estimation.observer import ObserverTuning
+
+    return tuple(f.name for f in fields(ObserverTuning))
+
+
+def config_from(args: argparse.Namespace):
+
     from .config import SpecConfig
 
-    tuning_names = tuple(f.name for f in fields(ObserverTuning))
     values: dict[str, object] = {
         "preset": args.preset,
-        "overrides": name_values(args.set, "--set", PARAMETER_NAMES, "kxy=5e7", "a gyro parameter"),
-        "tuning": name_values(args.tuning, "--tuning", tuning_names, "rate_model=2",
-                         "an observer tuning field"),
+        "overrides": dict(args.set or ()),
+        "tuning": dict(args.tuning or ()),
     }
     if args.noise is not None and args.noise_density is not None:
         raise ParameterError("give --noise (relative) or --noise-density (m/sqrt(Hz)), "
@@ -251,9 +254,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     sp.add_argument("--preset", choices=sorted(PRESETS), default=d["preset"].default,
                     help="parameter preset (default %(default)s)")
     sp.add_argument("--set", action="append", metavar="NAME=VALUE",
+                    type=options.assignment(PARAMETER_NAMES, "kxy=5e7", "a gyro parameter"),
                     help="override a gyro parameter (kxx, kyy, kxy: 1/s2; dxx, dyy, dxy: "
                          "1/s; m: kg); repeatable")
     sp.add_argument("--tuning", action="append", metavar="NAME=VALUE",
+                    type=options.assignment(_tuning_names, "rate_model=2",
+                                            "an observer tuning field"),
                     help="observer tuning field (ObserverTuning), e.g. rate_model=2; "
                          "repeatable")
     sp.add_argument("--noise", type=options.non_negative,

@@ -16,26 +16,13 @@ from ..model.rate import RateProfile
 from .scenario import SCENARIOS, Scenario, scenario
 
 
-def _assignments(items: list[str] | None, what: str) -> dict[str, float]:
-    out: dict[str, float] = {}
-    for item in items or []:
-        name, sep, value = item.partition("=")
-        if not sep:
-            raise ParameterError(f"{what} {item!r} must read NAME=VALUE, e.g. kxy=7.1e7")
-        try:
-            out[name.strip()] = float(value)
-        except ValueError:
-            raise ParameterError(f"{what} {item!r}: {value!r} is not a number") from None
-    return out
-
-
-def _scenario_from(args: argparse.Namespace) -> Scenario:
+def scenario_from_args(args: argparse.Namespace) -> Scenario:
     base = scenario(args.scenario)
     changes: dict[str, object] = {}
     if args.preset is not None:
         changes["preset"] = args.preset
     if args.set:
-        changes["overrides"] = {**base.overrides, **_assignments(args.set, "--set")}
+        changes["overrides"] = {**base.overrides, **dict(args.set)}
     if args.rate is not None:
         try:
             changes["rate"] = RateProfile.parse(args.rate)
@@ -44,7 +31,7 @@ def _scenario_from(args: argparse.Namespace) -> Scenario:
     if args.drive is not None:
         from ..model.drive import TwoToneDrive
 
-        values = _assignments(args.drive, "--drive")
+        values = dict(args.drive)
         known = [f.name for f in fields(TwoToneDrive)]
         unknown = sorted(set(values) - set(known))
         if unknown:
@@ -55,9 +42,9 @@ def _scenario_from(args: argparse.Namespace) -> Scenario:
         if value is not None:
             changes[name] = value
     if args.initial:
-        changes["initial"] = _assignments(args.initial, "--initial")
+        changes["initial"] = dict(args.initial)
     if args.tuning:
-        changes["tuning"] = _assignments(args.tuning, "--tuning")
+        changes["tuning"] = dict(args.tuning)
     return base.with_(**changes)
 
 
@@ -73,7 +60,7 @@ def _ensure_models(models: Path) -> None:
 def _cmd_run(args: argparse.Namespace) -> int:
     from .run import run_and_report
 
-    sc = _scenario_from(args)
+    sc = scenario_from_args(args)
     fmus = {}
     for item in args.fmu or []:
         name, sep, path = item.partition("=")
@@ -135,7 +122,7 @@ def _cmd_observability(args: argparse.Namespace) -> int:
 
     from ..estimation.observability import observability_report
 
-    sc = _scenario_from(args)
+    sc = scenario_from_args(args)
     drive = sc.the_drive
     drives = {"two tones": drive, f"tone 1 only ({drive.f1:g} Hz)": replace(drive, A2=0.0),
               f"tone 2 only ({drive.f2:g} Hz)": replace(drive, A1=0.0)}
@@ -154,7 +141,7 @@ def _cmd_ssp(args: argparse.Namespace) -> int:
     from .run import ensure_fmus, run_fmus
     from .ssp import relative_differences, run_ssp_libcosim, write_ssp
 
-    sc = _scenario_from(args)
+    sc = scenario_from_args(args)
     models = Path(args.models)
     ensure_fmus(models)
     path = write_ssp(sc, models, Path(args.out) if args.out else None)
@@ -186,7 +173,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     from ..estimation.identify import identify, read_record
     from ..model.parameters import GyroParameters
 
-    sc = _scenario_from(args)  # the start of the fit: --preset/--set (default: park-horowitz)
+    sc = scenario_from_args(args)  # the start of the fit: --preset/--set (default: park-horowitz)
     _check_beside_summary(Path(args.results))
     rec = read_record(Path(args.results), args.measured_pair or 1, args.window)
     start = GyroParameters(**sc.initial_guess) if args.start_from_guess else sc.params
@@ -215,8 +202,8 @@ def _cmd_design_drive(args: argparse.Namespace) -> int:
 
     from ..estimation.excitation import crb, design_drive, frequency_grid, heat_map
 
-    sc = _scenario_from(args)
-    weights = _assignments(args.weight, "--weight") if args.weight else None
+    sc = scenario_from_args(args)
+    weights = dict(args.weight) if args.weight else None
     freqs = frequency_grid(args.f_min, args.f_max, args.f_step)
     force = args.force_limit or (sc.the_drive.A1 + sc.the_drive.A2)
     Omega = sc.rate.Omega_z(0.0)
@@ -310,11 +297,12 @@ def _scenario_options(r: argparse.ArgumentParser) -> None:
                    help="default: park-horowitz at 1 rad/s; patent: Table 1 corrected, "
                         "sin(2 pi 100 t) rad/s")
     r.add_argument("--preset", choices=sorted(PRESETS), help="parameter preset")
-    r.add_argument("--set", action="append", metavar="NAME=VALUE",
+    r.add_argument("--set", action="append", metavar="NAME=VALUE", type=options.assignment(),
                    help=f"override a true parameter ({', '.join(PARAMETER_NAMES)}), SI")
     r.add_argument("--rate", help="rate profile: constant:1 | sine:AMP:FREQ[:OFFSET] | "
                    "step:AMP:T0[:OFFSET] | ramp:SLOPE:T0[:OFFSET] (rad/s, Hz, s)")
     r.add_argument("--drive", action="append", metavar="NAME=VALUE",
+                   type=options.assignment(example="f1=4100"),
                    help="drive setting A1, f1, A2, f2 (N, Hz)")
     r.add_argument("--stop-time", dest="stop_time", type=options.positive, help="s (default 0.1)")
     r.add_argument("--step", type=options.positive, help="communication step, s (default 5e-6)")
@@ -324,10 +312,12 @@ def _scenario_options(r: argparse.ArgumentParser) -> None:
     r.add_argument("--measured-pair", dest="measured_pair", type=int, choices=(1, 2),
                    help="1: positions x, y (default); 2: velocities vx, vy")
     r.add_argument("--initial", action="append", metavar="NAME=VALUE",
+                   type=options.assignment(example="kxx=3.6e8"),
                    help="observer initial guess of a parameter (default: truth x factors)")
     r.add_argument("--Omega-z-0", dest="Omega_z_0", type=options.finite,
                    help="observer initial rate guess, rad/s")
     r.add_argument("--tuning", action="append", metavar="NAME=VALUE",
+                   type=options.assignment(example="rate_model=2"),
                    help="observer tuning parameter (see GyroObserver.fmu)")
 
 
@@ -385,6 +375,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     default="relative", help="--noise as a fraction of each signal's peak "
                     "(default 1e-4) or an absolute std in m (or m/s)")
     dd.add_argument("--weight", action="append", metavar="NAME=W",
+                    type=options.assignment(example="Omega_z=1"),
                     help="objective: sum of W * sigma/tolerance (default Omega_z=1)")
     dd.add_argument("--out", default="runs/design-drive/crb_heatmap.png", help="heat map PNG")
     dd.set_defaults(func=_cmd_design_drive)

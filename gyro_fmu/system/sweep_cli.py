@@ -11,7 +11,7 @@ from .. import options
 from ..fmu.build import MODELS_DIR
 from ..model.parameters import ParameterError
 from ..outputs import holds_out_folder
-from .cli import _assignments, _scenario_from
+from .cli import scenario_from_args
 
 
 def _print_bound(b: dict | None) -> None:
@@ -57,12 +57,12 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     from .sweep import SweepSpec, ToleranceModel, run_sweep
     from .sweep_report import write_outputs
 
-    sc = _scenario_from(args)
+    sc = scenario_from_args(args)
     if sc.rate.kind is not RateKind.constant:
         raise ParameterError(f"the sweep runs a constant rate (--rate constant:VALUE), not "
                              f"{sc.rate.describe()}")
     spread = dict.fromkeys(PARAMETER_NAMES, args.spread)
-    spread.update(_assignments(args.spread_of, "--spread-of"))
+    spread.update(dict(args.spread_of or ()))
     tolerances = ToleranceModel(sc.preset, dict(sc.overrides), spread, args.distribution,
                                 args.tolerance_seed)
     spec = SweepSpec(tolerances, n=args.n, noise=sc.noise if args.noise is not None else 1e-5,
@@ -119,6 +119,7 @@ def register(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) -
     sw.add_argument("--spread", type=options.non_negative, default=0.10,
                     help="relative spread of every parameter (default 0.10)")
     sw.add_argument("--spread-of", dest="spread_of", action="append", metavar="NAME=S",
+                    type=options.assignment(example="kxy=0.2"),
                     help="relative spread of one parameter")
     sw.add_argument("--distribution", choices=("uniform", "normal"), default="uniform",
                     help="uniform: nominal*(1+S*U(-1,1)); normal: nominal*(1+S*N(0,1))")
