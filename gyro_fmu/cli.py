@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import textwrap
 import warnings
 from pathlib import Path
 
@@ -46,6 +47,29 @@ def _cmd_doctor(args: argparse.Namespace) -> int:
 
 
 
+#: The subcommands as a user thinks of them; `gyro-fmu --help` lists them so.
+GROUPS = {
+    "simulate": ("run", "report", "sweep"),
+    "analyse": ("observability", "identify", "design-drive", "spec"),
+    "calibrate": ("selfcal", "selfcal-warmup", "selfcal-lot", "ratetable"),
+    "export": ("build", "fmus", "ssp", "container"),
+    "check": ("validate", "doctor"),
+}
+
+
+class DefaultsFormatter(argparse.HelpFormatter):
+    """Help that prints each option's default from the code ("(default: X)"), so that
+    no help string types it again; options whose default is None (decided where the
+    value is used) or a flag's False say nothing."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if ("%(default)" in text or action.default in (None, False, argparse.SUPPRESS)
+                or not action.option_strings):
+            return text
+        return f"{text} (default: %(default)s)"
+
+
 def parser() -> argparse.ArgumentParser:
     from .fmu.build import FMU_NAMES, MODELS_DIR
 
@@ -53,25 +77,27 @@ def parser() -> argparse.ArgumentParser:
         prog="gyro-fmu",
         description="MEMS gyroscope FMUs (US 2011/0314910 A1) and their self-calibration "
                     "(US 9,482,553): build, co-simulate, calibrate, report.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     p.add_argument("--debug", action="store_true",
                    help="show the traceback of an error instead of one line")
-    sub = p.add_subparsers(dest="command", required=True)
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                           parser_class=_SubcommandParser)
 
     b = sub.add_parser("build", help=f"build {', '.join(FMU_NAMES)} into models/")
     b.add_argument("--dest", default=str(MODELS_DIR),
-                   help="output folder (default models/ under the working directory)")
+                   help="output folder, under the working directory")
     b.add_argument("--flavour", choices=("native", "pythonfmu"), default="native",
-                   help="native (default): the package's C FMUs; pythonfmu: pythonfmu "
+                   help="native: the package's C FMUs; pythonfmu: pythonfmu "
                    "adapters over the same C core instead (they need this Python)")
     b.set_defaults(func=_cmd_build)
 
     f = sub.add_parser("fmus", help=f"copy the native FMUs ({', '.join(FMU_NAMES)}; every "
                        "platform, FMI 2.0 and 3.0) out for your own tool")
-    f.add_argument("--dest", default="fmus", help="output folder (default fmus/)")
+    f.add_argument("--dest", default="fmus", help="output folder")
     f.add_argument("--fmi", choices=("2", "3", "both"), default="both",
-                   help="FMI version (default both, into DEST/fmi2 and DEST/fmi3)")
+                   help="FMI version (both: into DEST/fmi2 and DEST/fmi3)")
     f.set_defaults(func=_cmd_fmus)
 
     v = sub.add_parser("validate", help="re-simulate FMUs and compare with the reference "
@@ -79,9 +105,9 @@ def parser() -> argparse.ArgumentParser:
     v.add_argument("fmu", nargs="+", help="FMU file(s)")
     v.add_argument("--dy", type=options.band,
                    default=1e-6,
-                   help="band half-width as a fraction of each signal's range (default 1e-6)")
+                   help="band half-width as a fraction of each signal's range")
     v.add_argument("--dx", type=options.count, default=1,
-                   help="band width in samples (default 1)")
+                   help="band width in samples")
     v.set_defaults(func=_cmd_validate)
 
     d = sub.add_parser("doctor", help="what OMSimulator/Simulink/Dymola/C hosts need to load "
@@ -98,7 +124,37 @@ def parser() -> argparse.ArgumentParser:
     register_system(sub)
     register_selfcal(sub)
     register_spec(sub)
+    p.epilog = _grouped(sub)
     return p
+
+
+class _SubcommandParser(argparse.ArgumentParser):
+    """A subcommand: its help line is its description too, its defaults are printed."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        kwargs.setdefault("formatter_class", DefaultsFormatter)
+        super().__init__(*args, **kwargs)
+
+
+def _grouped(sub: argparse._SubParsersAction) -> str:
+    """The commands by group, one line each (their help), and each subparser's
+    description set from that help where it has none."""
+    helps = {a.dest: a.help or "" for a in sub._choices_actions}
+    listed = [name for names in GROUPS.values() for name in names]
+    missing = sorted(set(sub.choices) - set(listed))
+    if missing:  # a command nobody put in a group: a bug (tests/test_cli.py)
+        raise RuntimeError(f"gyro-fmu commands in no group: {missing}")
+    sub._choices_actions.clear()  # listed by group below instead of in one flat list
+    sub.help = "one of the commands below"
+    lines = ["commands (gyro-fmu COMMAND --help for each):"]
+    for group, names in GROUPS.items():
+        lines.append(f"  {group}:")
+        for name in names:
+            lines += textwrap.wrap(helps[name], 88, initial_indent=f"    {name:<15} ",
+                                   subsequent_indent=" " * 20)
+            if sub.choices[name].description is None:
+                sub.choices[name].description = helps[name][:1].upper() + helps[name][1:] + "."
+    return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 
 import pytest
@@ -141,3 +142,23 @@ def test_a_drive_far_from_the_modes_is_named_with_the_tones_to_use(models_dir, t
     assert sig[1] < sig[0] / 2, sig
     assert main([*common[:2], "0.001", *common[5:], "--out", str(tmp_path / "c")]) == 0
     assert "far from the guessed modes" not in capsys.readouterr().err
+
+
+def test_every_command_is_in_a_group_with_a_description_and_printed_defaults(capsys):
+    """`gyro-fmu --help` lists the commands by group (simulate, analyse, calibrate,
+    export, check); each command's help starts with a description, and an option's
+    default is printed from the parser, not typed in its help (--spread: 0.1)."""
+    from gyro_fmu.cli import GROUPS, parser
+
+    p = parser()
+    sub = next(a for a in p._actions if isinstance(a, argparse._SubParsersAction))
+    grouped = [name for names in GROUPS.values() for name in names]
+    assert sorted(grouped) == sorted(sub.choices) and len(set(grouped)) == len(grouped)
+    text = p.format_help()
+    for group in GROUPS:
+        assert f"  {group}:" in text
+    for name, command in sub.choices.items():
+        assert command.description, name
+    sweep = sub.choices["sweep"].format_help()
+    assert "relative spread of every parameter (default: 0.1)" in " ".join(sweep.split())
+    assert "(default 0.10)" not in sweep

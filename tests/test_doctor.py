@@ -66,6 +66,8 @@ def test_the_fmu_needs_no_settings_and_the_check_can_fail(report: doc.DoctorRepo
     said = moved.stdout + moved.stderr
     assert "/nonexistent/libpython.so" in said and "PYTHONFMU_LIBPYTHON" in said
     assert not moved.reached_end
+    text = report.format()  # the intended refusal is not reported as a failure
+    assert "refused as it must: exit status 4" in text and "FAIL" not in text
 
 
 @needs_c_host

@@ -37,6 +37,10 @@ from .environment import (
 from .environment import fmi2_header_dir as fmi2_header_dir  # re-exported: older imports
 from .host import CLEAN_PATH, FmuInfo, HostRun, compile_host, run_host, unpack_fmu
 
+#: The doctor's negative check: the recorded Python made unreachable, the FMU must refuse
+#: at fmi2Instantiate, naming it (its report says so, not "FAIL").
+MUST_FAIL = "Python moved"
+
 
 @dataclass
 class DoctorReport:
@@ -138,7 +142,10 @@ class DoctorReport:
         for run in self.runs:
             given = " ".join(f"{k}=..." for k in run.env) or "nothing but PATH=" + CLEAN_PATH
             out.append(f"   [{run.label}] env: {given}")
-            out.append(f"      {run.verdict()}")
+            verdict = run.verdict()
+            if run.label == MUST_FAIL and not run.passed:  # the intended negative check
+                verdict = "refused as it must: " + verdict.removeprefix("FAIL: ")
+            out.append(f"      {verdict}")
             if run.outputs:
                 last = ", ".join(f"{n}={v[-1]:.9g}" for n, v in run.outputs.items())
                 out.append(f"      at t={run.times[-1]:.6g} s: {last}")
@@ -262,7 +269,7 @@ def _check(report: DoctorReport, info: FmuInfo, work: Path) -> None:
     report.runs.append(run_host(exe, info, {}, "without"))
     if report.loader is not None:  # the check can fail: the recorded Python made unreachable
         report.runs.append(run_host(exe, info, {"PYTHONFMU_LIBPYTHON": "/nonexistent/libpython.so"},
-                                    "Python moved"))
+                                    MUST_FAIL))
     else:
         preload_only = {k: v for k, v in env.items() if not k.startswith("PYTHON")}
         report.runs.append(run_host(exe, info, preload_only, "preload only"))

@@ -311,7 +311,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     lot = sub.add_parser("selfcal-lot", help="self-calibrate a lot of resonators drawn "
                          "from a tolerance model (3-15 kHz, Q 5e3-2e5), each checked "
                          "against its rate table, on Dask")
-    lot.add_argument("-n", type=options.count, default=100, help="resonators (default 100)")
+    lot.add_argument("-n", type=options.count, default=100, help="resonators")
     lot.add_argument("--seed", type=options.seed, default=2026, help="seed of the draw")
     lot.add_argument("--model", action="append", metavar="NAME=VALUE",
                      type=options.assignment(_lot_fields, "Q_max=1e5",
@@ -331,7 +331,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "--span K, each checked against the rate table at its temperature")
     _common(wu)
     wu.add_argument("--span", type=options.positive, default=10.0,
-                    help="K of warm-up to calibrate through (default 10)")
+                    help="K of warm-up to calibrate through")
     wu.add_argument("--quiet", action="store_true", help="no line per calibration")
     wu.add_argument("--no-figures", dest="no_figures", action="store_true")
     wu.set_defaults(func=_cmd_warmup)

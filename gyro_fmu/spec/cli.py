@@ -290,7 +290,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     sp.add_argument("--startup-window", dest="startup_window", type=options.positive,
                     help="s the output is averaged over for the start-up time (default: "
                          "from the noise, so that noise alone stays in the band)")
-    sp.add_argument("--out", default="runs/spec", help="output folder (default runs/spec)")
+    sp.add_argument("--out", default="runs/spec", help="output folder")
     sp.add_argument("--no-figure", dest="no_figure", action="store_true",
                     help="skip spec.png")
     sp.add_argument("--quiet", action="store_true", help="no progress lines")

@@ -15,6 +15,10 @@ from ..model.parameters import PARAMETER_NAMES, PRESETS, ParameterError
 from ..model.rate import RateProfile
 from .scenario import SCENARIOS, Scenario, scenario
 
+#: s, each gyro's run of a sweep when --stop-time is not given (a run's own default is
+#: longer)
+SWEEP_STOP_TIME = 0.08
+
 
 def scenario_from_args(args: argparse.Namespace) -> Scenario:
     base = scenario(args.scenario)
@@ -304,8 +308,12 @@ def _scenario_options(r: argparse.ArgumentParser) -> None:
     r.add_argument("--drive", action="append", metavar="NAME=VALUE",
                    type=options.assignment(example="f1=4100"),
                    help="drive setting A1, f1, A2, f2 (N, Hz)")
-    r.add_argument("--stop-time", dest="stop_time", type=options.positive, help="s (default 0.1)")
-    r.add_argument("--step", type=options.positive, help="communication step, s (default 5e-6)")
+    defaults = {f.name: f.default for f in fields(Scenario)}
+    r.add_argument("--stop-time", dest="stop_time", type=options.positive,
+                   help=f"s (default {defaults['stop_time']:g}; sweep: "
+                        f"{SWEEP_STOP_TIME:g})")
+    r.add_argument("--step", type=options.positive,
+                   help=f"communication step, s (default {defaults['step']:g})")
     r.add_argument("--noise", type=options.non_negative,
                    help="measurement noise std as a fraction of each signal's peak")
     r.add_argument("--seed", type=options.seed, help="noise seed")
@@ -330,7 +338,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--fmu", action="append", metavar="INSTANCE=PATH",
                    help="use your FMU for an instance (drive, rate, plant, observer)")
     r.add_argument("--models", default=str(MODELS_DIR),
-                   help="folder of our FMUs (default ./models)")
+                   help="folder of our FMUs")
     r.add_argument("--out", help="output folder (default runs/SCENARIO)")
     r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     r.set_defaults(func=_cmd_run)
@@ -387,7 +395,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     s = sub.add_parser("ssp", parents=[common],
                        help="write the scenario's system as an SSP package; --run: in libcosim")
     s.add_argument("--models", default=str(MODELS_DIR),
-                   help="folder of our FMUs (default ./models)")
+                   help="folder of our FMUs")
     s.add_argument("--out", help="package file (default MODELS/GyroSystem.ssp)")
     s.add_argument("--run", action="store_true", help="run the package in libcosim")
     s.add_argument("--compare", action="store_true",
@@ -397,10 +405,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     c = sub.add_parser("container", help="build the whole system as one FMU "
                        "(models/GyroSystem.fmu, fmu-manipulation-toolbox)")
     c.add_argument("--models", default=str(MODELS_DIR),
-                   help="folder of our FMUs (default ./models)")
+                   help="folder of our FMUs")
     c.add_argument("--dest", help="container file (default MODELS/GyroSystem.fmu)")
-    c.add_argument("--step", type=options.positive, default=5e-6,
-                   help="internal fixed step, s (default 5e-6)")
+    c.add_argument("--step", type=options.positive, default=Scenario.step,
+                   help="internal fixed step, s")
     c.set_defaults(func=_cmd_container)
 
     rep = sub.add_parser("report", help="print the summary and redraw the figures of a run")

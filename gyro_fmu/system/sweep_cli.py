@@ -11,7 +11,7 @@ from .. import options
 from ..fmu.build import MODELS_DIR
 from ..model.parameters import ParameterError
 from ..outputs import holds_out_folder
-from .cli import scenario_from_args
+from .cli import SWEEP_STOP_TIME, scenario_from_args
 
 
 def _print_bound(b: dict | None) -> None:
@@ -67,7 +67,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
                                 args.tolerance_seed)
     spec = SweepSpec(tolerances, n=args.n, noise=sc.noise if args.noise is not None else 1e-5,
                      Omega_z=sc.rate.Omega_z(0.0), stop_time=sc.stop_time
-                     if args.stop_time is not None else 0.08, deadline=args.deadline,
+                     if args.stop_time is not None else SWEEP_STOP_TIME, deadline=args.deadline,
                      step=sc.step, measured_pair=sc.measured_pair, noise_seed=sc.seed,
                      tuning=dict(sc.tuning), observer_tuning=args.observer_tuning,
                      drive=sc.drive, batch=args.batch)
@@ -117,26 +117,27 @@ def register(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) -
                              "FMU co-simulation, on Dask")
     sw.add_argument("-n", "--n", type=options.count, default=200, help="number of gyros")
     sw.add_argument("--spread", type=options.non_negative, default=0.10,
-                    help="relative spread of every parameter (default 0.10)")
+                    help="relative spread of every parameter")
     sw.add_argument("--spread-of", dest="spread_of", action="append", metavar="NAME=S",
                     type=options.assignment(example="kxy=0.2"),
                     help="relative spread of one parameter")
     sw.add_argument("--distribution", choices=("uniform", "normal"), default="uniform",
                     help="uniform: nominal*(1+S*U(-1,1)); normal: nominal*(1+S*N(0,1))")
     sw.add_argument("--tolerance-seed", dest="tolerance_seed", type=options.seed, default=0)
-    sw.add_argument("--deadline", type=options.positive, help="s (default: the stop time, 0.08)")
+    sw.add_argument("--deadline", type=options.positive,
+                    help=f"s (default: the stop time, {SWEEP_STOP_TIME:g} s unless --stop-time)")
     sw.add_argument("--scheduler", help="address of an existing Dask scheduler "
                                         "(default: a local cluster)")
     sw.add_argument("--workers", type=options.count,
                     help="local cluster workers (default: all cores)")
     sw.add_argument("--models", default=str(MODELS_DIR),
-                   help="folder of our FMUs (default ./models)")
+                   help="folder of our FMUs")
     sw.add_argument("--out", default="runs/sweep", help="output folder")
     sw.add_argument("--no-figures", action="store_true", help="skip the histograms")
     sw.add_argument("--observer-tuning", dest="observer_tuning",
                     choices=("scenario", "fmu-rate", "fmu"), default="scenario",
-                    help="scenario: the constant-rate model and the noise stds told "
-                    "(default); fmu-rate: the FMU's default rate model, noise told; fmu: the "
+                    help="scenario: the constant-rate model and the noise stds told; "
+                    "fmu-rate: the FMU's default rate model, noise told; fmu: the "
                     "FMU's defaults (rate model and noise estimation); --tuning overrides")
     sw.add_argument("--batch", action="store_true",
                     help="also fit each gyro with the batch ML identifier (an estimator at "
