@@ -17,6 +17,7 @@ from ..model.loops import LoopsError
 from ..model.parameters import ParameterError
 from ..model.resonator import EARTH_RATE, ResonatorError, ResonatorParameters, check_resonator
 from ..outputs import holds_out_folder, write_json
+from . import defaults
 
 if TYPE_CHECKING:  # the parser is built without the calibration's stack (scipy.optimize)
     from .alarms import CalibrationRefusedError
@@ -283,28 +284,36 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "rotation (US 9,482,553), carrier-level")
     _common(sc)
     sc.add_argument("--record", type=options.positive,
-                    help="s per mode, whole periods of the spacing (default: 10 s, longer "
-                         "when the 1-sigmas need it, up to --max-record)")
+                    help=f"s per mode, whole periods of the spacing (default: "
+                         f"{defaults.RECORD:g} s, longer when the 1-sigmas need it, up to "
+                         "--max-record)")
     sc.add_argument("--max-record", dest="max_record", type=options.positive,
-                    help="s, longest record chosen for the targets (default 120)")
+                    help=f"s, longest record chosen for the targets (default "
+                         f"{defaults.MAX_RECORD:g})")
     sc.add_argument("--target-bias", dest="target_bias", type=options.positive,
-                    help="rad/s, bias 1-sigma to reach (default earth rate / 3, 2.4e-5)")
+                    help=f"rad/s, bias 1-sigma to reach (default earth rate / 3, "
+                         f"{defaults.TARGET_BIAS:.3g})")
     sc.add_argument("--target-sf-ppm", dest="target_sf_ppm", type=options.positive,
-                    help="ppm, scale-factor 1-sigma to reach (default 30)")
-    sc.add_argument("--settle", type=options.non_negative, help="s before each record (default 8)")
+                    help=f"ppm, scale-factor 1-sigma to reach (default "
+                         f"{defaults.TARGET_SF_PPM:g})")
+    sc.add_argument("--settle", type=options.non_negative,
+                    help=f"s before each record (default {defaults.SETTLE:g})")
     sc.add_argument("--sidebands", dest="sideband_count", type=options.count,
-                    help="number of sideband tones (default 7)")
+                    help=f"number of sideband tones (default {defaults.SIDEBAND_COUNT})")
     sc.add_argument("--index", dest="sideband_index", type=options.positive,
-                    help="modulation index per tone (default 0.04)")
+                    help=f"modulation index per tone (default {defaults.SIDEBAND_INDEX:g}, "
+                         "raised into the drive's headroom when the 1-sigmas need it; "
+                         "given: fixed)")
     sc.add_argument("--spacing", dest="sideband_spacing", type=options.positive,
-                    help="Hz between tones (default 0.2)")
+                    help="Hz between tones (default: 3/4 of the mode's half-width, 0.2-2 Hz "
+                         "on a 0.1 Hz grid: selfcal/design.py)")
     sc.add_argument("--kappa", type=options.positive,
-                    help="Bryant factor from the factory (default 0.8)")
+                    help=f"Bryant factor from the factory (default {defaults.KAPPA:g})")
     sc.add_argument("--compare-ratetable", dest="compare_ratetable", action="store_true",
                     help="also run the rate table on the same gyro and print the differences")
     sc.add_argument("--engine", choices=("inprocess", "fmu"), default="inprocess",
                     help="fmu: run GyroResonator.fmu + GyroLoops.fmu through the project's "
-                         "master (bit-identical to inprocess; about 1.2x its time)")
+                         "master (bit-identical to inprocess; about 2-2.5x its time)")
     sc.add_argument("--no-figures", dest="no_figures", action="store_true")
     sc.set_defaults(func=_cmd_selfcal)
 

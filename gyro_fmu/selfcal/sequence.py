@@ -25,9 +25,9 @@ import numpy as np
 
 from ..errors import GyroFmuError
 from ..model.loops import LoopSettings
-from ..model.resonator import EARTH_RATE, ResonatorParameters
+from ..model.resonator import ResonatorParameters
 from ..options import SEED_MAX
-from . import alarms
+from . import alarms, defaults
 from .estimator import (
     ModeData,
     NoiseModel,
@@ -49,21 +49,21 @@ class SelfCalConfig:
 
     step: float = DEFAULT_STEP  #: s, communication step
     ff_duration: float = 2.0  #: s, loops-off record (whole periods of 10 Hz)
-    settle: float = 8.0  #: s, before each sideband record (5 ring-down times)
-    record: float = 10.0  #: s, each sideband record (whole periods of the spacing)
+    settle: float = defaults.SETTLE  #: s, before each sideband record (5 ring-down times)
+    record: float = defaults.RECORD  #: s, each sideband record (whole periods of the spacing)
     auto_record: bool = True  #: lengthen the records until the 1-sigmas meet the targets
-    max_record: float = 120.0  #: s, longest record auto_record may choose
-    target_bias: float = EARTH_RATE / 3  #: rad/s, bias 1-sigma to reach
-    target_sf_ppm: float = 30.0  #: ppm, scale-factor 1-sigma to reach
-    sideband_index: float = 0.04  #: modulation index per tone
+    max_record: float = defaults.MAX_RECORD  #: s, longest record auto_record may choose
+    target_bias: float = defaults.TARGET_BIAS  #: rad/s, bias 1-sigma to reach
+    target_sf_ppm: float = defaults.TARGET_SF_PPM  #: ppm, scale-factor 1-sigma to reach
+    sideband_index: float = defaults.SIDEBAND_INDEX  #: modulation index per tone
     #: when the 1-sigmas miss the targets, raise the index into the drive's headroom
     #: before lengthening the records (choose_excitation)
     auto_index: bool = True
     sideband_spacing: float = 0.2  #: Hz (two Hann bins of a 10 s record)
-    sideband_count: int = 7  #: tones at 1..count times the spacing (0.2..1.4 Hz)
+    sideband_count: int = defaults.SIDEBAND_COUNT  #: tones at 1..count times the spacing
     Omega_z: float = 0.0  #: rad/s, background rate during calibration (earth rate)
     seed: int = 1
-    kappa: float = 0.8  #: Bryant factor from the factory calibration (seed: constant)
+    kappa: float = defaults.KAPPA  #: Bryant factor from the factory calibration (seed: constant)
     ring_amplitude: float = 3.0  #: V, each ring tone of step 1 (0.3 V at the pick-offs)
     ring_offset: float = 260.0  #: Hz, ring tones at f_nominal -/+ this
     fit_feedthrough: bool = True  #: fit the feed-through left after the correction
