@@ -31,3 +31,18 @@ def test_observer_reproduces_the_patent_claim(models_dir, name):
         assert u["converged_within_tolerance_at_s"] is not None
         assert u["converged_within_tolerance_at_s"] <= 0.08, (unknown, u)
     assert summary["unknowns"]["Omega_z"]["rms_error_tail_rel_to_peak"] <= 0.01
+
+
+def test_a_long_run_shows_its_progress_and_a_short_one_does_not(models_dir, capsys,
+                                                                 monkeypatch):
+    """A co-simulation of at least run.PROGRESS_STEPS steps (about 2 s) draws a tqdm bar
+    on stderr that reaches its total; a shorter one draws nothing."""
+    import gyro_fmu.system.run as run
+
+    sc = scenario(stop_time=0.002)  # 401 points
+    run_fmus(sc, models_dir)
+    assert "co-simulation" not in capsys.readouterr().err
+    monkeypatch.setattr(run, "PROGRESS_STEPS", 100)
+    run_fmus(sc, models_dir)
+    err = capsys.readouterr().err
+    assert "co-simulation" in err and "401/401" in err

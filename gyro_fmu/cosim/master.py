@@ -64,6 +64,7 @@ def run_cosimulation(
     record: Sequence[str] | None = None,
     max_result_bytes: int | None = None,
     sink: Callable[[np.ndarray, int], None] | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> CoSimulationResult:
     """Run the coupled FMUs with a fixed communication step and record signals.
 
@@ -75,6 +76,7 @@ def run_cosimulation(
     sink(rows, k) with rows[i] the point k + i (time and the recorded columns; a view
     valid during the call), so memory does not grow with the run; the result then
     holds the final point only.
+    progress: called after each chunk of steps with (points done, points in all).
     Ctrl-C stops the run between chunks of steps and raises CoSimulationInterrupted
     (a KeyboardInterrupt) carrying the points simulated so far.
     """
@@ -104,7 +106,7 @@ def run_cosimulation(
             if interrupted():
                 raise CoSimulationInterrupted("co-simulation interrupted during start-up, "
                                               "before the first step")
-            k, phase, index, status = plan.run(start_time, step, interrupted)
+            k, phase, index, status = plan.run(start_time, step, interrupted, progress)
             result = CoSimulationResult(tuple(columns), plan.result(k), units_of(instances))
             if interrupted():  # Ctrl-C wins over a refusal in the same chunk
                 raise CoSimulationInterrupted(
@@ -258,8 +260,8 @@ class _Plan:
         wanted = [0] + [column[r] for r in recorded]
         self._wanted = None if wanted == list(range(ncol)) else np.array(wanted, dtype=np.intp)
 
-    def run(self, start_time: float, step: float,
-            interrupted: Callable[[], bool]) -> tuple[int, int, int, int]:
+    def run(self, start_time: float, step: float, interrupted: Callable[[], bool],
+            progress: Callable[[int, int], None] | None = None) -> tuple[int, int, int, int]:
         """Every communication step, in chunks of _CHUNK steps, stopping after the chunk
         in which a call was refused or Ctrl-C came (`interrupted`). Returns (index of the
         last row read, phase, call index, status); phase -1 when nothing was refused."""
@@ -271,6 +273,8 @@ class _Plan:
             if self.sink is not None:  # the rows read, the refused one's included
                 self.sink(self._recorded(self.data[: outcome[0] - first + 1]), first)
                 self.last = (outcome[0], outcome[0] - first)
+            if progress is not None:
+                progress(outcome[0] + 1, n + 1)
             if outcome[1] >= 0 or interrupted():
                 return outcome
         return outcome

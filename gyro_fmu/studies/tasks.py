@@ -11,7 +11,6 @@ a local cluster never take the signal, so there are no worker tracebacks.
 
 from __future__ import annotations
 
-import math
 import os
 import signal
 import sys
@@ -20,6 +19,7 @@ import time
 from collections.abc import Callable, Sequence
 
 from ..errors import GyroFmuError
+from .progress import progress_bar
 
 
 def run_tasks(
@@ -38,6 +38,9 @@ def run_tasks(
     cluster = None
     if scheduler is None:
         n_workers = n_workers or os.cpu_count() or 1
+        if progress:  # Dask takes seconds to start its workers: say so first
+            print(f"starting a local Dask cluster of {n_workers} worker processes ...",
+                  file=sys.stderr, flush=True)
         cluster = local_cluster(n_workers)
         client = Client(cluster)
     else:
@@ -51,21 +54,23 @@ def run_tasks(
         n_workers = len(client.scheduler_info().get("workers", {})) or (n_workers or 1)
         start = time.perf_counter()
         futures = {client.submit(fn, *a, pure=False): i for i, a in enumerate(args)}
-        bar = Progress(len(futures)) if progress else None
         rows: dict[int, dict] = {}
         interrupted = None
+        failed = 0
         try:
-            for fut in as_completed(futures):
-                i = futures[fut]
-                try:
-                    row = fut.result()
-                except Exception as exc:  # worker died, task lost: still a row
-                    row = lost_row(i, exc)
-                rows[i] = row
-                if on_row:
-                    on_row(row)
-                if bar:
-                    bar.update(is_failed(row))
+            with progress_bar(len(futures) if progress else 0, "runs", "run", 1) as bar:
+                for fut in as_completed(futures):
+                    i = futures[fut]
+                    try:
+                        row = fut.result()
+                    except Exception as exc:  # worker died, task lost: still a row
+                        row = lost_row(i, exc)
+                    rows[i] = row
+                    if on_row:
+                        on_row(row)
+                    failed += bool(is_failed(row))
+                    if bar:
+                        bar(len(rows), len(futures), failed)
         except KeyboardInterrupt:  # keep every finished row; the caller writes them
             interrupted = f"interrupted after {len(rows)} of {len(futures)} runs"
             if cluster is None:  # someone else's cluster: stop our tasks there
@@ -107,36 +112,3 @@ def local_cluster(n_workers: int):
                             dashboard_address=None, preload=[__name__])
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
-
-
-class Progress:
-    """One status line on stderr: done/total, failed, rate and ETA (no extra dependency)."""
-
-    def __init__(self, total: int, stream=sys.stderr, width: int = 30) -> None:
-        self.total, self.stream, self.width = total, stream, width
-        self.done = self.failed = 0
-        self.start = time.perf_counter()
-        self._tty = getattr(stream, "isatty", lambda: False)()
-        self._last = -math.inf
-
-    def update(self, failed: bool) -> None:
-        self.done += 1
-        self.failed += int(failed)
-        now = time.perf_counter()
-        if not self._tty and now - self._last < 5.0 and self.done < self.total:
-            return  # in a log file: one line per 5 s
-        self._last = now
-        elapsed = now - self.start
-        eta = elapsed / self.done * (self.total - self.done)
-        fill = round(self.width * self.done / self.total)
-        line = (f"[{'#' * fill}{'.' * (self.width - fill)}] {self.done}/{self.total} done, "
-                f"{self.failed} failed, {elapsed:.0f} s elapsed, ETA {_hms(eta)}")
-        self.stream.write(("\r" + line) if self._tty else line + "\n")
-        if self._tty and self.done == self.total:
-            self.stream.write("\n")
-        self.stream.flush()
-
-
-def _hms(s: float) -> str:
-    s = round(s)
-    return f"{s // 60}m{s % 60:02d}s" if s >= 60 else f"{s}s"

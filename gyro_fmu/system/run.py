@@ -21,6 +21,7 @@ from ..fmu.build import FMU_NAMES, MODELS_DIR, ensure_current
 from ..model.parameters import GyroParameters, validate_for_plant
 from ..model.plant import MeasurementNoise
 from ..outputs import atomic_write, out_folder, results_record
+from ..studies.progress import progress_bar
 from .scenario import Scenario, absolute_noise, fmu_system, observer_tuning
 
 HAT = {"Omega_z": "Omega_hat"}
@@ -34,6 +35,10 @@ def ensure_fmus(models_dir: Path = MODELS_DIR) -> list[Path]:
     """Build the FMUs that are missing from models_dir or older than the sources; returns
     the paths built."""
     return ensure_current(FMU_NAMES, Path(models_dir))
+
+
+#: Runs of at least this many steps show a progress bar (about 2 s of the default system).
+PROGRESS_STEPS = 300_000
 
 
 def run_fmus(
@@ -53,7 +58,9 @@ def run_fmus(
         ensure_fmus(models_dir)
     noise = absolute_noise(sc) if noise is None else noise
     components, connections = fmu_system(sc, models_dir, fmus, noise)
-    return run_cosimulation(components, connections, sc.stop_time, sc.step)
+    with progress_bar(sc.n_steps + 1, "co-simulation", "step", PROGRESS_STEPS) as bar:
+        return run_cosimulation(components, connections, sc.stop_time, sc.step,
+                                progress=bar)
 
 
 def summary_of(sc: Scenario, result: CoSimulationResult, wall_time_s: float | None = None,
