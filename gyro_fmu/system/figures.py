@@ -77,28 +77,36 @@ def plotted(n: int) -> np.ndarray:
 
 
 def fig4_estimates(result: CoSimulationResult, truth: GyroParameters, path: Path) -> Path:
-    """Fig. 4A-4H: the 8 estimates (with 1-sigma band) against their truths over time."""
+    """Fig. 4A-4H, as an engineer reads it: for each of the 8 unknowns, the estimate's
+    error |estimate - truth| against the observer's own 1-sigma, both on log scales over
+    log time, so the convergence (often under a millisecond) and whether the reported
+    sigma covers the error both show, whatever the run's length."""
     rows = plotted(len(result["time"]))
-    t = result["time"][rows] * 1e3
+    t = result["time"][rows]
+    keep = t > 0.0  # log time: the first point is the guess at t = 0
+    t = t[keep] * 1e3
     fig, axes = plt.subplots(4, 2, figsize=(11, 11), sharex=True)
     for ax, name in zip(axes.flat, UNKNOWNS, strict=True):
         column = "observer.Omega_hat" if name == "Omega_z" else f"observer.{name}_hat"
-        est, sig = result[column][rows], result[f"observer.sigma_{name}"][rows]
-        true = (result["rate.Omega_z"][rows] if name == "Omega_z"
+        est, sig = result[column][rows][keep], result[f"observer.sigma_{name}"][rows][keep]
+        true = (result["rate.Omega_z"][rows][keep] if name == "Omega_z"
                 else np.full(t.shape, getattr(truth, name)))
-        ax.fill_between(t, est - sig, est + sig, color="r", alpha=0.15, lw=0, label="±1 sigma")
-        ax.plot(t, true, "k-", lw=1.5, label="truth")
-        ax.plot(t, est, "r-", lw=0.9, label="estimate")
+        err = np.abs(est - true)
+        shown = err > 0.0  # an exact zero has no place on a log scale
+        ax.fill_between(t, 0.0, sig, color="0.6", alpha=0.35, lw=0, label="reported 1-sigma")
+        ax.plot(t[shown], err[shown], "r-", lw=0.8, label="|estimate - truth|")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        positive = np.concatenate([err[shown], sig[sig > 0.0]])
+        if positive.size:
+            ax.set_ylim(max(positive.min(), positive.max() * 1e-9) / 2, positive.max() * 2)
         label, unit = _LABELS[name]
-        ax.set_ylabel(f"{label} ({unit})")
-        lo, hi = np.min(true), np.max(true)
-        span = max(hi - lo, 0.2 * max(abs(lo), abs(hi)), 0.5 if name.startswith("d") else 0.0)
-        ax.set_ylim(lo - 0.6 * span, hi + 0.6 * span)
+        ax.set_ylabel(f"{label} error ({unit})")
         ax.grid(alpha=0.3)
     axes[0, 0].legend(loc="upper right", fontsize=8)
     for ax in axes[-1]:
-        ax.set_xlabel("time (ms)")
-    fig.suptitle("Fig. 4A-4H: estimated unknowns against their truths")
+        ax.set_xlabel("time (ms, log)")
+    fig.suptitle("Fig. 4A-4H: each unknown's error against the observer's own 1-sigma")
     fig.subplots_adjust(**_MARGINS)
     save_figure(fig, path, dpi=110)
     plt.close(fig)
