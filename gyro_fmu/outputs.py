@@ -142,14 +142,19 @@ def check_pair(summary: dict, results: Path) -> None:
         raise MismatchedOutputsError(
             f"{results.parent / 'summary.json'} names no results (written before gyro_fmu "
             "0.3.0, or damaged): rerun the scenario")
-    if not results.is_file():
-        raise MismatchedOutputsError(f"{results} is missing: the run did not finish writing; "
-                                     "rerun the scenario")
-    if file_digest(results) != record["sha256"]:
-        raise MismatchedOutputsError(
-            f"{results} is not the results.csv of run {record.get('run_id')} that "
-            f"summary.json describes ({record.get('rows')} rows): they belong to different "
-            "runs, or one was changed; rerun the scenario")
+    binary = record.get("binary")
+    pairs = [(results, record["sha256"])]
+    if isinstance(binary, dict):
+        pairs.append((results.parent / str(binary.get("file")), binary.get("sha256")))
+    for path, digest in pairs:
+        if not path.is_file():
+            raise MismatchedOutputsError(f"{path} is missing: the run did not finish "
+                                         "writing; rerun the scenario")
+        if file_digest(path) != digest:
+            raise MismatchedOutputsError(
+                f"{path} is not the {path.name} of run {record.get('run_id')} that "
+                f"summary.json describes ({record.get('rows')} rows): they belong to "
+                "different runs, or one was changed; rerun the scenario")
 
 
 def write_json(path: Path, data: dict, **dumps: object) -> Path:

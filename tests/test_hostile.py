@@ -13,6 +13,7 @@ import math
 import os
 import signal
 import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,7 @@ import pytest
 
 from gyro_fmu.cli import main
 from gyro_fmu.cosim.master import CoSimulationError, CoSimulationInterrupted
+from gyro_fmu.errors import GyroFmuError
 from gyro_fmu.system.run import RunOutputError, load_results, run_and_report, write_or_rescue
 from gyro_fmu.system.scenario import scenario
 
@@ -43,12 +45,22 @@ def test_a_step_that_does_not_divide_the_run_is_refused_with_both_nearest_stop_t
     assert not (tmp_path / "r").exists()
 
 
-def test_a_run_too_long_for_memory_is_refused_before_allocating(models_dir, tmp_path, capsys):
-    # it used to try to allocate 43.7 TiB and die in a MemoryError traceback
+def test_a_run_too_long_for_the_disk_is_refused_before_it_starts(models_dir, tmp_path, capsys):
+    # it used to try to allocate 43.7 TiB and die in a MemoryError traceback; streamed to
+    # disk, it filled 58 GB in 700 s before the disk refused
+    start = time.perf_counter()
     assert main(_run(models_dir, tmp_path / "r", "--stop-time", "1e6")) == 2
+    assert time.perf_counter() - start < 30
     err = _error(capsys)
-    assert "GiB" in err and "more than the limit" in err and "shorten the run" in err
+    assert "GiB" in err and "GiB free" in err and "shorten the run" in err
     assert not (tmp_path / "r").exists(), "no empty output folder left behind"
+
+
+def test_a_result_held_in_memory_too_large_is_refused_before_allocating(models_dir):
+    from gyro_fmu.system.run import run_fmus
+
+    with pytest.raises(GyroFmuError, match=r"more than the limit.*shorten the run"):
+        run_fmus(scenario(stop_time=1e6), models_dir, ensure=False)
 
 
 @pytest.mark.parametrize("where", ["a file", "under a file", "unreachable"])

@@ -65,6 +65,7 @@ def run_cosimulation(
     max_result_bytes: int | None = None,
     sink: Callable[[np.ndarray, int], None] | None = None,
     progress: Callable[[int, int], None] | None = None,
+    on_columns: Callable[[tuple[str, ...], dict[str, str]], None] | None = None,
 ) -> CoSimulationResult:
     """Run the coupled FMUs with a fixed communication step and record signals.
 
@@ -77,6 +78,8 @@ def run_cosimulation(
     valid during the call), so memory does not grow with the run; the result then
     holds the final point only.
     progress: called after each chunk of steps with (points done, points in all).
+    on_columns: called once before the first step with the recorded columns ("time"
+    first) and their units, e.g. for a sink to write a header.
     Ctrl-C stops the run between chunks of steps and raises CoSimulationInterrupted
     (a KeyboardInterrupt) carrying the points simulated so far.
     """
@@ -99,6 +102,8 @@ def run_cosimulation(
             wiring = _wire(outputs, connections)
             columns, getters = _recording(outputs, record)
             plan = _Plan(instances, outputs, wiring, getters, n_steps, max_result_bytes, sink)
+            if on_columns is not None:
+                on_columns(tuple(columns), units_of(instances))
             for name, inst in instances.items():
                 targets = map(split_reference, (c.dst for c in connections))
                 connected = {var for inst_name, var in targets if inst_name == name}

@@ -79,7 +79,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     for message in summary["warnings"]:
         print(f"warning: {message}", file=sys.stderr)
     _print_summary(summary)
-    print(f"wrote {out}/results.csv, summary.json" + ("" if args.no_figures else
+    print(f"wrote {out}/results.csv, results.parquet, summary.json" + (
+        "" if args.no_figures else
           ", fig3_states.png, fig4_estimates.png"))
     return 0
 
@@ -102,7 +103,8 @@ def _check_beside_summary(results: Path) -> None:
 def _cmd_report(args: argparse.Namespace) -> int:
     from ..model.parameters import GyroParameters
     from ..outputs import check_pair
-    from .run import load_results, make_figures
+    from ..results.writer import PARQUET
+    from .run import make_figures, read_back
 
     run_dir = Path(args.run_dir)
     summary_path = run_dir / "summary.json"
@@ -116,7 +118,9 @@ def _cmd_report(args: argparse.Namespace) -> int:
         raise ParameterError(f"{summary_path} is damaged or not written by `gyro-fmu run` "
                              f"({type(exc).__name__}: {exc}): rerun the scenario") from None
     check_pair(summary, run_dir / "results.csv")  # the results this summary describes
-    for path in make_figures(load_results(run_dir / "results.csv"), truth, run_dir):
+    binary = summary["results"].get("binary")  # written since 0.4.0: read in chunks
+    _, data = read_back(run_dir / (PARQUET if binary else "results.csv"), truth)
+    for path in make_figures(data, run_dir):
         print(f"wrote {path}")
     return 0
 

@@ -1,4 +1,9 @@
-"""The main job: co-simulate a scenario through the FMUs and write results, summary, figures."""
+"""The main job: co-simulate a scenario through the FMUs and write results, summary, figures.
+
+The results stream to results.csv and results.parquet as the run goes
+(`gyro_fmu.results.writer`); the summary and the figures are then made by reading the
+Parquet file back in chunks, so memory does not grow with the run's length.
+"""
 
 from __future__ import annotations
 
@@ -10,25 +15,28 @@ import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import asdict
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .. import __version__
 from ..cosim.master import CoSimulationInterrupted, CoSimulationResult, run_cosimulation
 from ..errors import GyroFmuError
-from ..estimation.metrics import ESTIMATED, summarize
+from ..estimation.metrics import ESTIMATED, RunMetrics, summarize
 from ..fmu.build import FMU_NAMES, MODELS_DIR, ensure_current
 from ..model.parameters import GyroParameters, validate_for_plant
 from ..model.plant import MeasurementNoise
-from ..outputs import atomic_write, out_folder, results_record
+from ..outputs import atomic_write, out_folder
+from ..results.columns import OBSERVED, TRUE_RATE, estimate_column, sigma_column
+from ..results.read import iter_columns
+from ..results.writer import PARQUET, ResultFiles
 from ..studies.progress import progress_bar
 from .scenario import Scenario, absolute_noise, fmu_system, observer_tuning
 
-HAT = {"Omega_z": "Omega_hat"}
+if TYPE_CHECKING:
+    from .figures import FigureData
 
-
-def estimate_column(name: str) -> str:
-    return f"observer.{HAT.get(name, name + '_hat')}"
+__all__ = ["estimate_column", "run_and_report", "run_fmus", "summary_of"]
 
 
 def ensure_fmus(models_dir: Path = MODELS_DIR) -> list[Path]:
@@ -47,12 +55,15 @@ def run_fmus(
     fmus: Mapping[str, Path] | None = None,
     noise: MeasurementNoise | None = None,
     ensure: bool = True,
+    sink: ResultFiles | None = None,
 ) -> CoSimulationResult:
     """Co-simulate the scenario's standard system through the FMUs with the fmpy master.
 
     noise: the absolute pick-off noise, if already computed from the scenario.
     ensure: build missing or stale FMUs first (a sweep's workers leave that to the
     host, so that they never rebuild an FMU another worker is reading).
+    sink: stream the rows into these files instead of keeping them (the result then
+    holds the last point only).
     """
     if ensure and not fmus:
         ensure_fmus(models_dir)
@@ -60,27 +71,55 @@ def run_fmus(
     components, connections = fmu_system(sc, models_dir, fmus, noise)
     with progress_bar(sc.n_steps + 1, "co-simulation", "step", PROGRESS_STEPS) as bar:
         return run_cosimulation(components, connections, sc.stop_time, sc.step,
-                                progress=bar)
+                                progress=bar, sink=sink,
+                                on_columns=None if sink is None else sink.begin)
 
 
 def summary_of(sc: Scenario, result: CoSimulationResult, wall_time_s: float | None = None,
                caught: list[str] | None = None, noise: MeasurementNoise | None = None) -> dict:
-    truth: GyroParameters = sc.params
+    """summary.json's content for a result held in memory."""
     estimates = {n: result[estimate_column(n)] for n in ESTIMATED}
-    sigmas = {n: result[f"observer.sigma_{n}"] for n in ESTIMATED}
-    metrics = summarize(result["time"], estimates, sigmas, truth, result["rate.Omega_z"])
-    finite = bool(np.all(np.isfinite(result.data)))
+    sigmas = {n: result[sigma_column(n)] for n in ESTIMATED}
+    metrics = summarize(result["time"], estimates, sigmas, sc.params, result[TRUE_RATE])
+    return _summary(sc, metrics, bool(np.all(np.isfinite(result.data))), wall_time_s,
+                    caught, noise)
+
+
+def _summary(sc: Scenario, metrics: dict, finite: bool, wall_time_s: float | None,
+             caught: list[str] | None, noise: MeasurementNoise | None) -> dict:
     noise = absolute_noise(sc) if noise is None else noise
     return {
         "gyro_fmu_version": __version__,
         "scenario": {**sc.as_dict(), "noise_std_absolute": asdict(noise),
                      "observer_tuning": observer_tuning(sc, noise)},
-        "true_parameters": truth.as_dict(),
+        "true_parameters": sc.params.as_dict(),
         "finite": finite,
         "wall_time_s": wall_time_s,
         "warnings": caught or [],
         **metrics,
     }
+
+
+def read_back(path: Path, truth: GyroParameters, figures: bool = True
+              ) -> tuple[RunMetrics, FigureData | None]:
+    """The summary's metrics and (if figures) the figures' data of a run's results file
+    (results.parquet, or results.csv of an older run), read in chunks: two passes, the
+    first for the run's span and largest rate, as the tail and the rate's tolerance
+    depend on them."""
+    from .figures import FigureData
+
+    metrics = RunMetrics(truth)
+    for chunk in iter_columns(path, ("time", TRUE_RATE)):
+        metrics.scan(chunk["time"], chunk[TRUE_RATE])
+    if not metrics.rows:
+        raise RunOutputError(f"{path} has a header but no rows: rerun the scenario")
+    data = FigureData(truth, metrics.t0, metrics.t_end) if figures else None
+    for chunk in iter_columns(path, FigureData.COLUMNS if figures else OBSERVED):
+        metrics.judge(chunk["time"], {n: chunk[estimate_column(n)] for n in ESTIMATED},
+                      {n: chunk[sigma_column(n)] for n in ESTIMATED}, chunk[TRUE_RATE])
+        if data is not None:
+            data.feed(chunk)
+    return metrics, data
 
 
 def run_and_report(
@@ -105,38 +144,41 @@ def _run_into(sc: Scenario, out_dir: Path, models_dir: Path, fmus: Mapping[str, 
               figures: bool) -> dict:
     """run_and_report's work, with the folder's lock held."""
     run_id = uuid.uuid4().hex
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        validate_for_plant(sc.params)  # the growth-rate warning goes into summary.json
-        _warn_if_drive_far(sc)
-        noise = absolute_noise(sc)
-        start = time.perf_counter()
-        try:
-            result = run_fmus(sc, models_dir, fmus, noise)
-            interrupted = None
-        except CoSimulationInterrupted as exc:
-            if exc.result is None or len(exc.result.data) < 2:
-                raise
-            result, interrupted = exc.result, exc
-        wall = time.perf_counter() - start
-    messages = [str(w.message) for w in caught]
-    # an old summary must never sit beside new results: it goes before they come
-    for name in ("summary.json", *FIGURES):  # nor an old figure
-        (out_dir / name).unlink(missing_ok=True)
-    results = write_or_rescue(result.write_csv, out_dir / "results.csv")
-    summary = summary_of(sc, result, wall, messages, noise)
+    with ResultFiles(out_dir, run_id, expected_rows=sc.n_steps + 1) as files:  # removed
+        # again if the run fails
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            validate_for_plant(sc.params)  # the growth-rate warning goes into summary.json
+            _warn_if_drive_far(sc)
+            noise = absolute_noise(sc)
+            start = time.perf_counter()
+            try:
+                run_fmus(sc, models_dir, fmus, noise, sink=files)
+                interrupted = None
+            except CoSimulationInterrupted as exc:
+                if files.rows < 2:
+                    raise
+                interrupted = exc
+            wall = time.perf_counter() - start
+        # an old summary must never sit beside new results: it goes before they come
+        for name in ("summary.json", *FIGURES):  # nor an old figure
+            (out_dir / name).unlink(missing_ok=True)
+        record = files.close()
+    metrics, data = read_back(out_dir / PARQUET, sc.params, figures and interrupted is None)
+    summary = _summary(sc, metrics.summary(), files.finite, wall,
+                       [str(w.message) for w in caught], noise)
     summary["run_id"] = run_id
-    summary["results"] = results_record(results, run_id, len(result.data))
+    summary["results"] = record
     if interrupted is not None:
-        summary["interrupted"] = {"at_s": float(result["time"][-1]), "message": str(interrupted)}
+        summary["interrupted"] = {"at_s": metrics.t_end, "message": str(interrupted)}
     write_or_rescue(lambda path: path.write_text(json.dumps(summary, indent=2)),
-                    results.parent / "summary.json")
+                    out_dir / "summary.json")
     if interrupted is not None:
         interrupted.args = (f"{interrupted}; wrote what was simulated to "
-                            f"{out_dir / 'results.csv'} and summary.json",)
+                            f"{out_dir / 'results.csv'}, results.parquet and summary.json",)
         raise interrupted
-    if figures:
-        make_figures(result, sc.params, out_dir)
+    if data is not None:
+        make_figures(data, out_dir)
     return summary
 
 
@@ -178,13 +220,12 @@ class RunOutputError(GyroFmuError):
     """An output file of a run could not be written (its content was rescued)."""
 
 
-def make_figures(result: CoSimulationResult, truth: GyroParameters, out_dir: Path) -> list[Path]:
+def make_figures(data: FigureData, out_dir: Path) -> list[Path]:
+    """Draw FIGURES into out_dir from `read_back`'s figure data."""
     from .figures import fig3_states, fig4_estimates
 
-    return [
-        fig3_states(result, Path(out_dir) / FIGURES[0]),
-        fig4_estimates(result, truth, Path(out_dir) / FIGURES[1]),
-    ]
+    return [fig3_states(data, Path(out_dir) / FIGURES[0]),
+            fig4_estimates(data, Path(out_dir) / FIGURES[1])]
 
 
 def load_results(path: Path) -> CoSimulationResult:
