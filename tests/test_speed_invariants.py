@@ -1,4 +1,4 @@
-"""What the speed work (issue 6, docs/performance.md) must not change; no timings here."""
+"""What the speed work (docs/results/performance.md) must not change; no timings here."""
 
 from __future__ import annotations
 

@@ -91,7 +91,7 @@ def variable(inst: Instance, var: str, causality: Iterable[str], ref: str):
 
 #: FMU archives unpacked in this process: (path, mtime, size) -> directory. Unpacking
 #: (about 60 files per FMU) cost more than a 20,000-step run's stepping of drive and rate
-#: together (docs/performance.md); FMI resources are read-only, so every instance of
+#: together (measured in 0.2.0); FMI resources are read-only, so every instance of
 #: an unchanged archive shares one directory, removed when the process ends.
 _UNPACKED: dict[tuple[str, int, int], tempfile.TemporaryDirectory] = {}
 

@@ -1,7 +1,7 @@
 """The master's stepping loop: the C core's gyro_master_steps (fmu_src/core/gyro_master.c).
 
 Each FMI call from a Python loop costs ~1-2 us of ctypes work on top of what the FMU
-does (docs/performance.md); over 10 calls per communication step that was more than the
+does (measured in 0.2.0, CHANGELOG.md); over 10 calls per communication step that was more than the
 whole in-process computation. The loop therefore runs in C and calls the FMUs'
 fmi2GetReal / fmi2SetReal / fmi2DoStep through their addresses, as any C master does:
 one getReal per FMU with outputs, one setReal per connected FMU, one doStep per FMU,
