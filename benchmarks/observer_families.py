@@ -27,6 +27,12 @@ Per family and noise, over the samples after 20 ms (the judged window):
   end>4s   runs whose last sample is more than 4 sigma off with status 0 (target 0)
   flag     runs with a non-zero status at any sample in the window
   blind    step only: ms after the step with status 0 and |error| > 5 sigma (mean, max)
+  detector step only: the delay of an ideal change detector that knows the gyro, its
+           state, the noise and the step (0 -> 1 rad/s at 50 ms): the time after the
+           step at which the expected log-likelihood ratio of "stepped" against "not
+           stepped", sum over samples of ((dx/sx)^2 + (dy/sy)^2) / 2 with dx, dy the
+           noise-free difference of the two trajectories, reaches 5^2 / 2 (the evidence
+           of a 5-sigma shift); blind/detector per run (mean, max) and the runs over 1.5
   ideal    (--ideal) RMS error of a filter that knows the gyro, err/ideal the ratio: the
            same FMU started at the true parameters with priors of 1e-9 (relative) on
            them and told the noise; it still models the rate as the default does. For
@@ -159,6 +165,7 @@ class Run:
     bound_err: float | None = None
     ideal_err: np.ndarray | None = None  # the ideal filter's Omega_hat - Omega_z
     ideal_blind: float | None = None  # step: its time with status 0 and error > 5 sigma
+    detector: float | None = None  # step: the ideal change detector's delay (s)
 
 
 def one_gyro(obs: ObserverFMU, g: int, p: GyroParameters, families, noises, seeds, n,
@@ -178,6 +185,7 @@ def one_gyro(obs: ObserverFMU, g: int, p: GyroParameters, families, noises, seed
         for seed in range(seeds):
             Omega = rate_samples(family, n, np.random.default_rng((g, seed, 7)))
             s = plant_run(p, u, Omega)
+            unstepped = plant_run(p, u, np.zeros(n + 1)) if family == "step" else None
             for noise in noises:
                 noise_rng = np.random.default_rng((g, seed, int(noise * 1e9)))
                 z = s[:, [0, 2]]
@@ -186,6 +194,8 @@ def one_gyro(obs: ObserverFMU, g: int, p: GyroParameters, families, noises, seed
                 out = obs.run(guess, u, z)
                 run = Run(family, noise, g, seed, out[:, 0] - Omega[1:], out[:, 1],
                           out[:, 2].astype(int), t + H)
+                if unstepped is not None:
+                    run.detector = detector_delay(s, unstepped, std, t)
                 if ideal:
                     known = {**{f"{k}_0": getattr(p, k) for k in PARAMETER_NAMES},
                              "Omega_z_0": 0.0, "sigma0_k_rel": 1e-9, "sigma0_d_rel": 1e-9,
@@ -202,6 +212,17 @@ def one_gyro(obs: ObserverFMU, g: int, p: GyroParameters, families, noises, seed
                                                                n, run)
                 runs.append(run)
     return runs
+
+
+def detector_delay(stepped: np.ndarray, unstepped: np.ndarray, std: np.ndarray,
+                   t: np.ndarray) -> float:
+    """Seconds after STEP_AT until the expected log-likelihood ratio of the stepped
+    against the unstepped trajectory (known gyro, state, noise and step) reaches 12.5,
+    the evidence of a 5-sigma shift; inf if never within the run."""
+    d = (stepped - unstepped)[:, [0, 2]] / std
+    llr = np.cumsum(0.5 * np.sum(d**2, axis=1) * (t >= STEP_AT))
+    hit = np.nonzero(llr >= 12.5)[0]
+    return float(t[hit[0]] + H - STEP_AT) if hit.size else math.inf
 
 
 def posterior_bound(p, scale, family, noise, peaks, n, run) -> tuple[float, float]:
@@ -239,6 +260,11 @@ def summarize(runs: list[Run]) -> dict:
         blind = [float(np.sum((r.t >= STEP_AT) & (r.status == 0)
                               & (np.abs(r.err) > 5 * r.sigma)) * H) for r in runs]
         out["blind_ms"] = (1e3 * float(np.mean(blind)), 1e3 * max(blind))
+        det = [r.detector for r in runs]
+        out["detector_ms"] = (1e3 * float(np.mean(det)), 1e3 * max(det))
+        ratio = [b / d for b, d in zip(blind, det, strict=True)]
+        out["blind/detector"] = (float(np.mean(ratio)), max(ratio),
+                                 sum(x > 1.5 for x in ratio))
         ideal_blind = [r.ideal_blind for r in runs if r.ideal_blind is not None]
         if ideal_blind:
             out["ideal_blind_ms"] = (1e3 * float(np.mean(ideal_blind)), 1e3 * max(ideal_blind))
@@ -298,6 +324,10 @@ def main() -> int:
             extra = ""
             if "blind_ms" in s:
                 extra += f"blind {s['blind_ms'][0]:.2f} ms mean, {s['blind_ms'][1]:.2f} max "
+            if "detector_ms" in s:
+                d, r = s["detector_ms"], s["blind/detector"]
+                extra += (f"detector {d[0]:.3f} mean, {d[1]:.3f} max; blind/detector "
+                          f"{r[0]:.2f} mean, {r[1]:.2f} max, {r[2]} runs > 1.5 ")
             if "ideal_blind_ms" in s:
                 extra += (f"(ideal {s['ideal_blind_ms'][0]:.2f} mean, "
                           f"{s['ideal_blind_ms'][1]:.2f} max) ")
