@@ -33,7 +33,8 @@ Per family and noise, over the samples after 20 ms (the judged window):
            stepped", sum over samples of ((dx/sx)^2 + (dy/sy)^2) / 2 with dx, dy the
            noise-free difference of the two trajectories, reaches 5^2 / 2 (the evidence
            of a 5-sigma shift); blind/detector per run (mean, max) and the runs over 1.5
-  ideal    (--ideal) RMS error of a filter that knows the gyro, err/ideal the ratio: the
+  ideal    (--ideal) RMS error of a filter that knows the gyro, err/ideal the ratio, and
+           its own e/s: the
            same FMU started at the true parameters with priors of 1e-9 (relative) on
            them and told the noise; it still models the rate as the default does. For
            the step also its blind time (the delay of a detector that knows the gyro)
@@ -164,6 +165,7 @@ class Run:
     bound: float | None = None
     bound_err: float | None = None
     ideal_err: np.ndarray | None = None  # the ideal filter's Omega_hat - Omega_z
+    ideal_sigma: np.ndarray | None = None  # and its sigma_Omega_z
     ideal_blind: float | None = None  # step: its time with status 0 and error > 5 sigma
     detector: float | None = None  # step: the ideal change detector's delay (s)
 
@@ -202,6 +204,7 @@ def one_gyro(obs: ObserverFMU, g: int, p: GyroParameters, families, noises, seed
                              "sigma0_m_rel": 1e-9, "sigma_z1": std[0], "sigma_z2": std[1]}
                     ideal_out = obs.run(known, u, z)
                     run.ideal_err = ideal_out[:, 0] - Omega[1:]
+                    run.ideal_sigma = ideal_out[:, 1]
                     if family == "step":
                         run.ideal_blind = float(np.sum(
                             (run.t >= STEP_AT) & (ideal_out[:, 2] == 0)
@@ -272,6 +275,9 @@ def summarize(runs: list[Run]) -> dict:
     if ideal:
         out["ideal"] = float(np.sqrt(np.mean(np.concatenate(ideal) ** 2)))
         out["err/ideal"] = out["err"] / out["ideal"]
+        ratio = np.concatenate([(r.ideal_err / r.ideal_sigma)[r.t >= WINDOW_START]
+                                for r in runs if r.ideal_err is not None])
+        out["ideal e/s"] = float(np.sqrt(np.mean(ratio**2)))
     bounds = [(r.bound, r.bound_err) for r in runs if r.bound is not None]
     if bounds:
         b, be = np.array(bounds).T
@@ -332,7 +338,8 @@ def main() -> int:
                 extra += (f"(ideal {s['ideal_blind_ms'][0]:.2f} mean, "
                           f"{s['ideal_blind_ms'][1]:.2f} max) ")
             if "ideal" in s:
-                extra += f"ideal {s['ideal']:.3g}, err/ideal {s['err/ideal']:.2f} "
+                extra += (f"ideal {s['ideal']:.3g}, err/ideal {s['err/ideal']:.2f}, ideal e/s "
+                          f"{s['ideal e/s']:.2f} ")
             if "bound" in s:
                 extra += f"bound {s['bound']:.3g}, err/bound {s['err/bound']:.2f}"
             print(f"{family:<9} {noise:>6.0e} {s['runs']:>4} {s['err']:>9.3g} {s['sig']:>9.3g} "

@@ -6,17 +6,20 @@ each FMU, which ships this package):
 - ``scenario``, ``Scenario``, ``fmu_system``: a gyroscope experiment and its FMU system;
 - ``run_cosimulation``, ``Component``, ``Connection``: the FMI 2.0 co-simulation master;
 - ``preset``, ``GyroParameters``: the gyroscope's parameters;
-- ``GyroStateObserver``, ``ObserverTuning``: the augmented-state observer (eqs. 5-9).
+- ``GyroStateObserver``, ``ObserverTuning``: the augmented-state observer (eqs. 5-9);
+- ``read_results``: a run's results.parquet or results.csv as a structured array (what
+  fmpy's plotting takes).
 
-Subpackages, lowest first: ``model`` (physics) and ``cosim`` (master) and ``fmu``
-(pythonfmu tooling); ``estimation``; ``doctor``; ``system`` and ``selfcal``; ``cli``.
+Subpackages, lowest first: ``core`` (the C core), ``model`` (physics) and ``cosim``
+(master); ``estimation`` and ``results`` (a run's files); ``fmu`` (FMU builds); ``doctor``;
+``system`` and ``selfcal``; ``cli``.
 """
 
 from __future__ import annotations
 
 import importlib
 
-__version__ = "0.3.0"
+__version__ = "0.4.0"
 
 # Many FMUs in one process, each shipping this package: fmu/shipped_copies.py
 importlib.import_module("gyro_fmu.fmu.shipped_copies").install()
@@ -32,6 +35,7 @@ _EXPORTS = {
     "GyroParameters": "gyro_fmu.model.parameters",
     "GyroStateObserver": "gyro_fmu.estimation.observer",
     "ObserverTuning": "gyro_fmu.estimation.observer",
+    "read_results": "gyro_fmu.results.read",
 }
 
 __all__ = ["__version__", *_EXPORTS]

@@ -102,6 +102,7 @@ def _invoke(argv: list[str], folder: Path, budget: float
     cwd = os.getcwd()
     try:
         os.chdir(folder)
+        _ARMED[0] = True
         signal.setitimer(signal.ITIMER_REAL, budget)
         with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
             try:
@@ -113,6 +114,7 @@ def _invoke(argv: list[str], folder: Path, budget: float
     except BaseException as exc:
         escaped = "".join(traceback.format_exception_only(type(exc), exc)).strip()
     finally:
+        _ARMED[0] = False  # first: an alarm from here on must not escape the trial
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
         os.chdir(cwd)
@@ -151,8 +153,15 @@ def run_trial(command: str, option: str | None, value: str, folder: Path, out: s
     return Trial(command, option, value, outcome, code, said[:300])
 
 
+#: Whether a trial is running: the alarm interrupts only then. Under load an alarm came
+#: late, after the trial, and stopped the whole test session from a thread join.
+_ARMED = [False]
+
+
 def _alarm(signum: int, frame: object) -> None:
-    raise KeyboardInterrupt("trial budget")
+    if _ARMED[0]:
+        _ARMED[0] = False  # once: a second interrupt would cut the CLI's own clean-up
+        raise KeyboardInterrupt("trial budget")
 
 
 def _no_dask(*args: object, **kwargs: object) -> object:

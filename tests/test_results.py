@@ -57,6 +57,10 @@ def test_both_files_hold_the_rows_exactly_and_name_themselves(tmp_path):
         assert np.array_equal(back.view(np.int64), rows.view(np.int64))  # bit for bit
     assert units_of(tmp_path / "results.parquet") == {"time": "s", "plant.x": "m",
                                                        "observer.Omega_hat": "rad/s"}
+    import pyarrow.parquet as pq
+
+    field = pq.ParquetFile(tmp_path / "results.parquet").schema_arrow.field("plant.x")
+    assert field.metadata == {b"unit": b"m"}
     from gyro_fmu.outputs import file_digest
 
     assert record["sha256"] == file_digest(tmp_path / "results.csv")

@@ -149,7 +149,8 @@ def instantiate(comp: Component, callbacks: fmi2CallbackFunctions) -> Instance:
     path = Path(comp.fmu)
     if not path.exists():
         raise CoSimulationError(
-            f"FMU {path} of instance {comp.name!r} not found: build it with `gyro-fmu build`"
+            f"FMU {path} of instance {comp.name!r} not found: check the path (gyro_fmu's own "
+            "FMUs are put into models/ by `gyro-fmu build`)"
         )
     if path.is_dir():
         raise CoSimulationError(f"FMU {path} of instance {comp.name!r} is a folder: give "

@@ -21,6 +21,7 @@ import sys
 import tempfile
 import uuid
 import zipfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from xml.etree.ElementTree import Element, SubElement, indent, tostring
@@ -373,11 +374,16 @@ def write_fmu(interface: FmuInterface, fmi_version: int, binaries: dict[str, Pat
 
 def build_native(dest: Path, names: tuple[str, ...] = tuple(NATIVE_INTERFACES),
                  fmi_versions: tuple[int, ...] = (2, 3), reference: bool = True,
-                 targets: tuple[Target, ...] = TARGETS) -> list[Path]:
-    """The native FMUs into dest/fmi2/ and dest/fmi3/; returns their paths."""
+                 targets: tuple[Target, ...] = TARGETS,
+                 say: Callable[[str], None] | None = None) -> list[Path]:
+    """The native FMUs into dest/fmi2/ and dest/fmi3/; returns their paths. say: told
+    each FMU as its build starts (the install's progress)."""
     out = []
     with tempfile.TemporaryDirectory(prefix="gyro_fmu-native-") as tmp:
-        for name in names:
+        for i, name in enumerate(names, 1):
+            if say is not None:
+                say(f"building {name}.fmu ({i} of {len(names)}): {len(targets)} platforms, "
+                    f"FMI {' and '.join(map(str, fmi_versions))}")
             interface = NATIVE_INTERFACES[name]
             binaries = build_binaries(interface, Path(tmp) / name, targets)
             for version in fmi_versions:
@@ -427,9 +433,15 @@ def build_package(force: bool = False) -> bool:
     skipped when they are current. Returns whether anything was built."""
     if not force and prebuilt_problem() is None:
         return False
+
+    def say(text: str) -> None:  # pip shows it with -v; python -m build always
+        print(f"gyro_fmu: {text}", file=sys.stderr, flush=True)
+
+    say(f"compiling the C core for {len(TARGETS)} platforms with zig cc (about 3 minutes "
+        "the first time on a machine, seconds once zig's cache holds it)")
     build_core(CORE_LIB)
     stamp = PREBUILT_FMUS / STAMP
     stamp.unlink(missing_ok=True)
-    build_native(PREBUILT_FMUS)
+    build_native(PREBUILT_FMUS, say=say)
     stamp.write_text(sources_digest() + "\n")
     return True

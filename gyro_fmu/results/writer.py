@@ -93,7 +93,8 @@ class ResultFiles:
         import pyarrow.parquet as pq
 
         meta = {"run_id": self.run_id, "units": self.units}
-        self._schema = pa.schema([pa.field(c, pa.float64(), nullable=False)
+        self._schema = pa.schema([pa.field(c, pa.float64(), nullable=False,
+                                           metadata={"unit": self.units[c]})
                                   for c in self.columns],
                                  metadata={METADATA_KEY: json.dumps(meta).encode()})
         try:

@@ -57,7 +57,7 @@ def _ensure_models(models: Path) -> None:
     from .run import ensure_fmus
 
     built = ensure_fmus(models)
-    print(f"FMUs in {models.resolve()}" + (f" (built {', '.join(p.stem for p in built)})"
+    print(f"FMUs in {models.resolve()}" + (f" (copied {', '.join(p.stem for p in built)})"
                                            if built else ""))
 
 
@@ -118,7 +118,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
         raise ParameterError(f"{summary_path} is damaged or not written by `gyro-fmu run` "
                              f"({type(exc).__name__}: {exc}): rerun the scenario") from None
     check_pair(summary, run_dir / "results.csv")  # the results this summary describes
-    binary = summary["results"].get("binary")  # written since 0.4.0: read in chunks
+    binary = summary["results"].get("binary")  # since 0.4.0; a 0.3 run has its CSV only
     _, data = read_back(run_dir / (PARQUET if binary else "results.csv"), truth)
     for path in make_figures(data, run_dir):
         print(f"wrote {path}")
@@ -338,7 +338,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     common = argparse.ArgumentParser(add_help=False)
     _scenario_options(common)
     r = sub.add_parser("run", parents=[common],
-                       help="co-simulate a scenario through the FMUs with fmpy")
+                       help="co-simulate a scenario through the FMUs with fmpy",
+                       description="Co-simulate a scenario through the FMUs with fmpy. "
+                       "Writes OUT/results.csv and results.parquet (every signal at every "
+                       "communication point, streamed to disk as the run goes), "
+                       "summary.json and the figures fig3_states.png and fig4_estimates.png.")
     r.add_argument("--fmu", action="append", metavar="INSTANCE=PATH",
                    help="use your FMU for an instance (drive, rate, plant, observer)")
     r.add_argument("--models", default=str(MODELS_DIR),

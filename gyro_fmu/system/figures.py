@@ -128,7 +128,7 @@ def fig3_states(data: FigureData, path: Path) -> Path:
             ax = axes[i, j]
             if rows:
                 ax.plot(t, rows[plant], "k--", lw=1.2,
-                        label="gyroscope (measured)" if obs else "drive")
+                        label="gyroscope" if obs else "drive")
                 if obs:
                     ax.plot(t, rows[obs], "r-", lw=0.8, label="observer")
             ax.set_ylabel(f"{label} ({unit})")
@@ -172,7 +172,9 @@ def fig4_estimates(data: FigureData, path: Path) -> Path:
         positive = np.concatenate([emax[shown], smax[smax > 0.0]])
         positive = positive[np.isfinite(positive)]
         if positive.size:
-            ax.set_ylim(max(positive.min(), positive.max() * 1e-9) / 2, positive.max() * 2)
+            # down to the smallest error or sigma (at most 14 decades): a noise-free run's
+            # parameter errors fall 12 decades below their start
+            ax.set_ylim(max(positive.min(), positive.max() * 1e-14) / 2, positive.max() * 2)
         label, unit = _LABELS[name]
         ax.set_ylabel(f"{label} error ({unit})")
         ax.grid(alpha=0.3)
