@@ -179,6 +179,15 @@ class SweepResult:
         }
 
 
+
+def log_bins(values: np.ndarray, n: int) -> np.ndarray:
+    """n + 1 log-spaced edges holding every positive value, 1 included: the edges reach
+    a little past both ends (10 ** log10(v) rounds above v for some v, and the
+    smallest sample fell outside the first bin)."""
+    lo, hi = float(np.min(values)), max(float(np.max(values)), 1.01)
+    return np.logspace(math.log10(lo) - 1e-6, math.log10(hi) + 1e-6, n + 1)
+
+
 def _pct(values: Sequence[float], q: float) -> float | None:
     return float(np.percentile(values, q)) if len(values) else None
 
@@ -245,9 +254,7 @@ def histograms(res: SweepResult, path: Path) -> Path:
         ax = axes.flat[1 + j]
         v = np.array([r[f"err_over_tol_{name}"] for r in ok])
         v = np.clip(v, 1e-6, None)
-        bins = np.logspace(math.log10(v.min()), math.log10(max(v.max(), 1.01)), 30) \
-            if v.size else 10
-        ax.hist(v, bins=bins, color="C1")
+        ax.hist(v, bins=log_bins(v, 30) if v.size else 10, color="C1")
         ax.set_xscale("log")
         ax.axvline(1.0, color="k", ls="--", lw=1)
         ax.set_xlabel(f"|error {name}| / tolerance at end")
