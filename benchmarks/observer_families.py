@@ -38,6 +38,10 @@ Per family and noise, over the samples after 20 ms (the judged window):
            same FMU started at the true parameters with priors of 1e-9 (relative) on
            them and told the noise; it still models the rate as the default does. For
            the step also its blind time (the delay of a detector that knows the gyro)
+  crb      (--crb) constant only: the batch Cramer-Rao bound of Omega_z at the run's end
+           (identify.crb_at: 8 unknowns, no prior, the same inputs and noise), err_end/crb
+           the RMS over runs of the last sample's error over it, and the 95 % band of that
+           ratio for an efficient estimator over as many runs (chi-square)
   bound    (--bound) RMS of the posterior Cramer-Rao bound at 40, 60, 80, 100 ms for the
            first seed of each gyro (constant, sines, Gauss-Markov; the step has none), and
            err/bound over the same samples
@@ -71,6 +75,10 @@ H = 5e-6
 WINDOW_START = 0.02
 FAMILIES = ("constant", "step", "gm10", "gm30", "gm50", "sine10", "sine100")
 STEP_AT = 0.05
+#: --tuning: FMU parameters set in every run beside the guesses
+TUNING: dict[str, float] = {}
+#: --told-noise: the observer is told each run's noise (diagnosis)
+TOLD_NOISE = False
 
 
 def random_gyro(rng: np.random.Generator) -> GyroParameters:
@@ -120,6 +128,7 @@ class ObserverFMU:
     def __init__(self, fmu: Path) -> None:
         md = read_model_description(fmu)
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
+        self.integers = {v.name for v in md.modelVariables if v.type in ("Integer", "Enumeration")}
         self.dir = extract(fmu)
         self.slave = FMU2Slave(guid=md.guid, unzipDirectory=self.dir,
                                modelIdentifier=md.coSimulation.modelIdentifier,
@@ -135,7 +144,11 @@ class ObserverFMU:
         self.slave.reset()
         self.slave.setupExperiment(startTime=0.0)
         self.slave.enterInitializationMode()
-        self.slave.setReal([self.vr[n] for n in start], list(start.values()))
+        reals = {n: v for n, v in start.items() if n not in self.integers}
+        ints = {n: int(v) for n, v in start.items() if n in self.integers}
+        self.slave.setReal([self.vr[n] for n in reals], list(reals.values()))
+        if ints:
+            self.slave.setInteger([self.vr[n] for n in ints], list(ints.values()))
         self.slave.exitInitializationMode()
         out = np.empty((len(u), 3))
         set_real, do_step, get_real = self.slave.setReal, self.slave.doStep, self.slave.getReal
@@ -168,10 +181,11 @@ class Run:
     ideal_sigma: np.ndarray | None = None  # and its sigma_Omega_z
     ideal_blind: float | None = None  # step: its time with status 0 and error > 5 sigma
     detector: float | None = None  # step: the ideal change detector's delay (s)
+    crb: float | None = None  # constant: the batch CRB of Omega_z at the end
 
 
 def one_gyro(obs: ObserverFMU, g: int, p: GyroParameters, families, noises, seeds, n,
-             bound: bool, ideal: bool = False) -> list[Run]:
+             bound: bool, ideal: bool = False, crb: bool = False) -> list[Run]:
     rng = np.random.default_rng(1000 + g)
     drive = TwoToneDrive()
     t = np.arange(n) * H
@@ -182,7 +196,9 @@ def one_gyro(obs: ObserverFMU, g: int, p: GyroParameters, families, noises, seed
     guess = {f"{k}_0": getattr(p, k) * (1 + 0.05 * rng.choice([-1, 1]))
              for k in PARAMETER_NAMES}
     guess["Omega_z_0"] = 0.0
+    guess.update(TUNING)
     runs = []
+    crbs: dict[float, float] = {}
     for family in families:
         for seed in range(seeds):
             Omega = rate_samples(family, n, np.random.default_rng((g, seed, 7)))
@@ -193,11 +209,16 @@ def one_gyro(obs: ObserverFMU, g: int, p: GyroParameters, families, noises, seed
                 z = s[:, [0, 2]]
                 std = noise * np.abs(z).max(axis=0)
                 z = z + noise_rng.standard_normal(z.shape) * std
-                out = obs.run(guess, u, z)
+                told = {"sigma_z1": std[0], "sigma_z2": std[1]} if TOLD_NOISE else {}
+                out = obs.run({**guess, **told}, u, z)
                 run = Run(family, noise, g, seed, out[:, 0] - Omega[1:], out[:, 1],
                           out[:, 2].astype(int), t + H)
                 if unstepped is not None:
                     run.detector = detector_delay(s, unstepped, std, t)
+                if crb and family == "constant":
+                    if noise not in crbs:
+                        crbs[noise] = batch_crb(p, t, u, s, std)
+                    run.crb = crbs[noise]
                 if ideal:
                     known = {**{f"{k}_0": getattr(p, k) for k in PARAMETER_NAMES},
                              "Omega_z_0": 0.0, "sigma0_k_rel": 1e-9, "sigma0_d_rel": 1e-9,
@@ -226,6 +247,15 @@ def detector_delay(stepped: np.ndarray, unstepped: np.ndarray, std: np.ndarray,
     llr = np.cumsum(0.5 * np.sum(d**2, axis=1) * (t >= STEP_AT))
     hit = np.nonzero(llr >= 12.5)[0]
     return float(t[hit[0]] + H - STEP_AT) if hit.size else math.inf
+
+
+def batch_crb(p: GyroParameters, t: np.ndarray, u: np.ndarray, s: np.ndarray,
+              std: np.ndarray) -> float:
+    """The batch Cramer-Rao 1-sigma of a constant Omega_z = 1 from z_0 .. z_{n-1}."""
+    from gyro_fmu.estimation.identify import Record, crb_at
+
+    record = Record(t, np.column_stack([u, np.zeros_like(u)]), s[:, [0, 2]])
+    return crb_at(p, 1.0, record, tuple(std))["Omega_z"]
 
 
 def posterior_bound(p, scale, family, noise, peaks, n, run) -> tuple[float, float]:
@@ -278,6 +308,15 @@ def summarize(runs: list[Run]) -> dict:
         ratio = np.concatenate([(r.ideal_err / r.ideal_sigma)[r.t >= WINDOW_START]
                                 for r in runs if r.ideal_err is not None])
         out["ideal e/s"] = float(np.sqrt(np.mean(ratio**2)))
+    crbs = [(r.err[-1], r.crb) for r in runs if r.crb is not None]
+    if crbs:
+        from scipy.stats import chi2
+
+        e, c = np.array(crbs).T
+        m = len(crbs)
+        out["err_end/crb"] = float(np.sqrt(np.mean((e / c) ** 2)))
+        out["efficient band"] = tuple(float(np.sqrt(chi2.ppf(q, m) / m))
+                                      for q in (0.025, 0.975))
     bounds = [(r.bound, r.bound_err) for r in runs if r.bound is not None]
     if bounds:
         b, be = np.array(bounds).T
@@ -294,10 +333,20 @@ def main() -> int:
     ap.add_argument("--families", nargs="+", choices=FAMILIES, default=list(FAMILIES))
     ap.add_argument("--stop-time", type=float, default=0.1)
     ap.add_argument("--bound", action="store_true", help="the posterior bound (slow)")
+    ap.add_argument("--tuning", nargs="*", default=[], metavar="NAME=VALUE",
+                    help="GyroObserver.fmu parameters set for every run (diagnosis; the "
+                         "table is at the defaults without it)")
+    ap.add_argument("--told-noise", action="store_true",
+                    help="tell the observer each run's noise (diagnosis)")
+    ap.add_argument("--crb", action="store_true",
+                    help="constant: the last error against the batch Cramer-Rao bound")
     ap.add_argument("--ideal", action="store_true",
                     help="beside each run, a filter that knows the gyro and the noise")
     ap.add_argument("--gyro-seed", type=int, default=2026)
     args = ap.parse_args()
+    TUNING.update({k: float(v) for k, v in (item.split("=", 1) for item in args.tuning)})
+    global TOLD_NOISE
+    TOLD_NOISE = args.told_noise
     n = round(args.stop_time / H)
     rng = np.random.default_rng(args.gyro_seed)
     gyros = [random_gyro(rng) for _ in range(args.gyros)]
@@ -312,7 +361,7 @@ def main() -> int:
     try:
         for g, p in enumerate(gyros):
             runs += one_gyro(obs, g, p, args.families, args.noise, args.seeds, n, args.bound,
-                             args.ideal)
+                             args.ideal, args.crb)
     finally:
         obs.close()
     wall = time.perf_counter() - start
@@ -340,6 +389,9 @@ def main() -> int:
             if "ideal" in s:
                 extra += (f"ideal {s['ideal']:.3g}, err/ideal {s['err/ideal']:.2f}, ideal e/s "
                           f"{s['ideal e/s']:.2f} ")
+            if "err_end/crb" in s:
+                lo, hi = s["efficient band"]
+                extra += f"err_end/crb {s['err_end/crb']:.2f} (efficient: {lo:.2f}-{hi:.2f}) "
             if "bound" in s:
                 extra += f"bound {s['bound']:.3g}, err/bound {s['err/bound']:.2f}"
             print(f"{family:<9} {noise:>6.0e} {s['runs']:>4} {s['err']:>9.3g} {s['sig']:>9.3g} "
