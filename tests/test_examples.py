@@ -24,7 +24,7 @@ def run(argv: list[str], cwd: Path) -> str:
 
 def test_every_example_is_run_here() -> None:
     tested = {"observer_in_fmpy_loop.py", "cosimulate_from_python.py", "self_calibrate.py",
-              "validate_in_ci.sh"}
+              "validate_in_ci.sh", "read_results.py"}
     assert {p.name for p in EXAMPLES.iterdir() if p.suffix in (".py", ".sh")} == tested
 
 
@@ -56,3 +56,15 @@ def test_validate_in_ci(tmp_path: Path) -> None:
     out = run(["bash", str(EXAMPLES / "validate_in_ci.sh"), "my-fmus"], tmp_path)
     assert "all outputs match their reference results" in out
     assert len(list((tmp_path / "my-fmus").glob("*.fmu"))) == 6
+
+
+def test_read_results(tmp_path: Path) -> None:
+    pytest.importorskip("pandas")
+    pytest.importorskip("plotly")
+    run([sys.executable, "-m", "gyro_fmu.cli", "run", "--stop-time", "0.01", "--no-figures"],
+        tmp_path)
+    out = run([sys.executable, str(EXAMPLES / "read_results.py")], tmp_path)
+    assert "2001 rows" in out and "agree on every value: True" in out
+    assert "['observer.Omega_hat', 'observer.sigma_Omega_z']" in out
+    rms = float(re.search(r"last 20 %: (\S+) rad/s", out).group(1))
+    assert rms < 1e-3

@@ -180,3 +180,17 @@ def test_pythonfmu_still_aborts_a_c_host_at_exit(pythonfmu_models: Path, tmp_pat
         "gyro_fmu.upstream.pythonfmu_exit may go")
     on = host.run_host(exe, host.unpack_fmu(fmu, tmp_path / "on"), environment, "on", steps=3)
     assert on.returncode == 0 and not on.crashed_at_exit, on.stdout + on.stderr
+
+
+def test_fmpy_still_rescales_the_time_it_plots() -> None:
+    """fmpy 0.3.32's create_plotly_figure multiplies the given array's time column by
+    1e3 (ms) in place; examples/read_results.py plots a copy."""
+    import numpy as np
+
+    pytest.importorskip("plotly")
+    from fmpy.util import create_plotly_figure
+
+    table = np.zeros(3, dtype=[("time", "f8"), ("a", "f8")])
+    table["time"] = [0.0, 0.005, 0.01]
+    create_plotly_figure(table)
+    assert table["time"][-1] == pytest.approx(10.0), "fixed upstream: the copy can go"

@@ -16,6 +16,9 @@ canary per defect that fails once upstream behaves (then the workaround can go).
 - fmpy 0.3.32 keeps one process-global pointer behind its logger proxy, so a run with
   its own logger leaves the default callbacks calling freed memory: `fmpy_logger`
   (canary `test_fmpy_still_has_one_global_logger_proxy`).
+- fmpy 0.3.32's `create_plotly_figure` (behind `plot_result`) rescales the time column of
+  the array it is given, in place (to ms for a run under 1 s): examples/read_results.py
+  hands it a copy (canary `test_fmpy_still_rescales_the_time_it_plots`).
 - libcosimpy 0.0.6's `time_series_real_samples` drops a sample when step 0 is asked for:
   `libcosim_samples` (canary `test_libcosimpy_still_drops_a_sample`).
 
