@@ -304,7 +304,8 @@ def _scenario_options(r: argparse.ArgumentParser) -> None:
     r.add_argument("--scenario", default="default", choices=sorted(SCENARIOS),
                    help="default: park-horowitz at 1 rad/s; patent: Table 1 corrected, "
                         "sin(2 pi 100 t) rad/s")
-    r.add_argument("--preset", choices=sorted(PRESETS), help="parameter preset")
+    r.add_argument("--preset", choices=sorted(PRESETS),
+                   help="parameter preset (default: the scenario's)")
     r.add_argument("--set", action="append", metavar="NAME=VALUE", type=options.assignment(),
                    help=f"override a true parameter ({', '.join(PARAMETER_NAMES)}), SI")
     r.add_argument("--rate", help="rate profile: constant:1 | sine:AMP:FREQ[:OFFSET] | "
@@ -319,15 +320,18 @@ def _scenario_options(r: argparse.ArgumentParser) -> None:
     r.add_argument("--step", type=options.positive,
                    help=f"communication step, s (default {defaults['step']:g})")
     r.add_argument("--noise", type=options.non_negative,
-                   help="measurement noise std as a fraction of each signal's peak")
-    r.add_argument("--seed", type=options.seed, help="noise seed")
+                   help="measurement noise std as a fraction of each signal's peak "
+                        f"(default {defaults['noise']:g})")
+    r.add_argument("--seed", type=options.seed,
+                   help=f"noise seed (default {defaults['seed']})")
     r.add_argument("--measured-pair", dest="measured_pair", type=int, choices=(1, 2),
                    help="1: positions x, y (default); 2: velocities vx, vy")
     r.add_argument("--initial", action="append", metavar="NAME=VALUE",
                    type=options.assignment(example="kxx=3.6e8"),
                    help="observer initial guess of a parameter (default: truth x factors)")
     r.add_argument("--Omega-z-0", dest="Omega_z_0", type=options.finite,
-                   help="observer initial rate guess, rad/s")
+                   help=f"observer initial rate guess, rad/s (default "
+                        f"{defaults['Omega_z_0']:g})")
     r.add_argument("--tuning", action="append", metavar="NAME=VALUE",
                    type=options.assignment(example="rate_model=2"),
                    help="observer tuning parameter (see GyroObserver.fmu)")
