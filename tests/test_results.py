@@ -30,6 +30,7 @@ def _awkward(n: int, rng: np.random.Generator) -> np.ndarray:
     rows = rng.normal(size=(n, len(COLUMNS))) * 10.0 ** rng.integers(-300, 300, (n, 3))
     rows[:, 0] = np.arange(n) * 5e-6
     rows[3, 1], rows[4, 1], rows[5, 2] = 5e-324, -0.0, 1.7976931348623157e308
+    rows[6, 1], rows[7, 2], rows[8, 2] = np.nan, np.inf, -np.inf  # a lost filter's outputs
     return rows
 
 
@@ -77,7 +78,7 @@ def test_pandas_and_fmpys_plotting_read_the_parquet_file(tmp_path):
     _write(tmp_path, rows, [500])
     frame = pandas.read_parquet(tmp_path / "results.parquet")
     assert list(frame.columns) == list(COLUMNS)
-    assert np.array_equal(frame.to_numpy(), rows)
+    assert np.array_equal(frame.to_numpy(), rows, equal_nan=True)
     figure = create_plotly_figure(read_results(tmp_path / "results.parquet"))
     assert [trace.name for trace in figure.data] == list(COLUMNS[1:])
 
@@ -104,6 +105,17 @@ def test_a_failed_run_leaves_no_file_and_a_lost_folder_is_named(tmp_path):
         ok.begin(COLUMNS, {})
         ok(rows[:10], 0)
         ok(rows[20:30], 20)
+
+
+@pytest.mark.parametrize(("text", "words"), [
+    ("time,a\n0,1\n1,one\n", "Row #3: CSV conversion error to double: invalid value 'one'"),
+    ("time,a\n0,1\n1\n", "Row #3: Expected 2 columns, got 1"),
+    ("time,a\n0,1\n1,\n", "invalid value ''")])
+def test_a_damaged_csv_is_named_by_its_row(tmp_path, text, words):
+    (tmp_path / "r.csv").write_text(text)
+    with pytest.raises(ResultReadError, match="damaged") as caught:
+        list(iter_columns(tmp_path / "r.csv", ["time", "a"]))
+    assert words in str(caught.value) and "rerun the scenario" in str(caught.value)
 
 
 def test_a_file_that_is_not_results_is_refused(tmp_path):
