@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GyroFmuError
-from .writer import METADATA_KEY, ROW_GROUP
+from .writer import METADATA_KEY, READ_ROWS
 
 
 class ResultReadError(GyroFmuError):
@@ -55,7 +55,7 @@ def units_of(path: Path) -> dict[str, str]:
     return json.loads(meta.get(METADATA_KEY, b"{}")).get("units", {})
 
 
-def iter_columns(path: Path, names: Sequence[str], rows: int = ROW_GROUP
+def iter_columns(path: Path, names: Sequence[str], rows: int = READ_ROWS
                  ) -> Iterator[dict[str, np.ndarray]]:
     """Chunks of at most `rows` rows of the named columns, in order, as {name: array}."""
     path = Path(path)
