@@ -19,4 +19,10 @@ class BuildNative(build_py):
         super().run()
 
 
+# The folders the native build fills are listed as packages in pyproject.toml (setuptools
+# warns about each package-data folder that is not); egg_info runs before the build and
+# refuses a listed package whose folder does not exist, so they are made here first.
+for folder in ("gyro_fmu/core/lib", "gyro_fmu/fmus/fmi2", "gyro_fmu/fmus/fmi3"):
+    (HERE / folder).mkdir(parents=True, exist_ok=True)
+
 setup(cmdclass={"build_py": BuildNative})
