@@ -63,6 +63,9 @@ static const double REL_WARN = 0.02, REL_LOST = 0.2;
  * slowly varying misfit, not noise, so the sigmas (which assume white noise) are too
  * small. A converged noise-free filter has NIS ~1e-8 and is not flagged. */
 static const double CORR_WARN = 0.5, NIS_MIN = 0.1;
+/* Time constant (s) of the innovations' running mean square at the start (innov_tau's
+ * default); a longer innov_tau is reached as the run goes (rel_R). */
+static const double INNOV_TAU_START = 1e-3;
 /* Re-fit test: window time constant (s) and warning threshold on T (chi-square, 8 dof;
  * measured on good runs in docs/observer-soundness.md). */
 static const double REFIT_TAU = 0.02;
@@ -256,12 +259,18 @@ static void linearize(const GyroObserver *o, const double *x, double ux, double 
 
 /* ------------------------------------------------------------ correction (eq. 8) */
 
-/* Relative-mode noise variance: (noise_rel peak)^2, floored by the innovations' EWMA. */
+/* Relative-mode noise variance: (noise_rel peak)^2, floored by the innovations' running
+ * mean square: an EWMA of time constant INNOV_TAU_START at first, whose memory then
+ * grows as a plain mean's (t) until innov_tau. (An EWMA of a slow innov_tau started at
+ * the first square stayed near that one sample: at 50 ms it lost a good gyro at 85 us.
+ * A plain mean from the start slowed far noise-free starts: 30 % off, 20 ms, -3 rad/s.) */
 static double rel_R(GyroObserver *o, int j, double nu, double h) {
     const GyroObserverTuning *tun = &o->tuning;
     const double v2 = nu * nu;
     double e = o->nu2[j];
-    e = e < 0.0 ? v2 : e + dmin(h / tun->innov_tau, 1.0) * (v2 - e);
+    const double w = dmax(dmin(h / tun->innov_tau, 1.0),
+                          dmin(h / (o->t + h), h / INNOV_TAU_START));
+    e = e < 0.0 ? v2 : e + w * (v2 - e);
     o->nu2[j] = e;
     const double floor_ = tun->noise_rel * o->peak[j];
     return dmax(floor_ * floor_, tun->innov_floor * e);
