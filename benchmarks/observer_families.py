@@ -203,8 +203,8 @@ def one_gyro(obs: ObserverFMU, g: int, p: GyroParameters, families, noises, seed
     drive = TwoToneDrive()
     t = np.arange(n) * H
     unit = np.array([drive.ux(tk) for tk in t])
-    peak = np.abs(plant_run(p, unit, np.ones(n))[:, 0]).max()
-    scale = 1e-8 / peak  # peak displacement 1e-8 m (the system is linear in the drive)
+    constant = plant_run(p, unit, np.ones(n))
+    scale = 1e-8 / np.abs(constant[:, 0]).max()  # peak displacement 1e-8 m (linear in u)
     u = unit * scale
     guess = {f"{k}_0": getattr(p, k) * (1 + 0.05 * rng.choice([-1, 1]))
              for k in PARAMETER_NAMES}
@@ -212,7 +212,7 @@ def one_gyro(obs: ObserverFMU, g: int, p: GyroParameters, families, noises, seed
     guess.update(TUNING)
     runs = []
     crbs: dict[float, tuple[float, float]] = {}
-    info = ConstantRateInformation(p, t, u, plant_run(p, u, np.ones(n + 1))) if ideal else None
+    info = ConstantRateInformation(p, t, u, constant * scale) if ideal else None
     for family in families:
         for seed in range(seeds):
             Omega = rate_samples(family, n, np.random.default_rng((g, seed, 7)))
@@ -263,11 +263,10 @@ class ConstantRateInformation:
     FLOOR_TIMES, so that any run's noise gives its bound without new sensitivities."""
 
     def __init__(self, p: GyroParameters, t: np.ndarray, u: np.ndarray, s: np.ndarray):
-        from gyro_fmu.estimation.identify import Record, _Model, _theta
+        from gyro_fmu.estimation.identify import Record, sensitivities_at
 
         record = Record(t, np.column_stack([u, np.zeros_like(u)]), s[:, [0, 2]])
-        model = _Model(record, _theta(p, 1.0), fit_initial_state=True)
-        _, dz = model.evaluate(np.zeros(model.n_par))
+        dz = sensitivities_at(p, 1.0, record, fit_initial_state=True)
         self.F = []
         for te in FLOOR_TIMES:
             m = min(round(te / H), len(t))

@@ -37,15 +37,12 @@ def constant_run(p: GyroParameters, n: int) -> tuple[np.ndarray, np.ndarray, Rec
     d = TwoToneDrive()
     unit = np.array([d.ux(k * H) for k in range(n)])
 
-    def positions(u: np.ndarray) -> np.ndarray:
-        plant, out = GyroPlantModel(p), np.empty((n, 2))
-        for k in range(n):
-            out[k] = plant.s[[0, 2]]
-            plant.step(u[k], 0.0, 1.0, H)
-        return out
-
-    u = unit * 1e-8 / np.abs(positions(unit)[:, 0]).max()  # the plant is linear in u
-    z = positions(u)
+    plant, z = GyroPlantModel(p), np.empty((n, 2))
+    for k in range(n):
+        z[k] = plant.s[[0, 2]]
+        plant.step(unit[k], 0.0, 1.0, H)
+    scale = 1e-8 / np.abs(z[:, 0]).max()  # the plant is linear in u
+    u, z = unit * scale, z * scale
     t = np.arange(n) * H
     return u, z, Record(t, np.column_stack([u, np.zeros(n)]), z)
 

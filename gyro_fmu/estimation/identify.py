@@ -367,13 +367,24 @@ def crb_at(
 ) -> dict[str, float]:
     """Cramer-Rao 1-sigma of the 8 unknowns at the truth, for the inputs of a record."""
     model = _Model(record, _theta(params, Omega_z), fit_initial_state)
-    _, dz = model.evaluate(np.zeros(model.n_par))
+    dz = sensitivities_at(params, Omega_z, record, fit_initial_state, model)
     std = np.asarray(noise_std, float)
     cov = fisher.covariance((dz / std[None, :, None]).reshape(-1, model.n_par))
     d = model.c[:8].copy()
     d[7] = params.m
     sig = np.sqrt(np.clip(np.diag(cov)[:8], 0, None)) * d
     return dict(zip(UNKNOWNS, (float(v) for v in sig), strict=True))
+
+
+def sensitivities_at(params: GyroParameters, Omega_z: float, record: Record,
+                     fit_initial_state: bool = False, model: _Model | None = None
+                     ) -> np.ndarray:
+    """dz/ddelta (N, 2, 8 or 12) at the truth for the inputs of a record: column 0 per
+    rad/s of Omega_z, the parameters relative to their values, then (fit_initial_state)
+    the starting state. Each channel's Fisher matrix is J[:, c].T @ J[:, c] / std_c^2."""
+    if model is None:
+        model = _Model(record, _theta(params, Omega_z), fit_initial_state)
+    return model.evaluate(np.zeros(model.n_par))[1]
 
 
 def parameters_of(ident: Identification) -> GyroParameters:
