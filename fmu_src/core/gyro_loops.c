@@ -60,6 +60,17 @@ int gyro_loop_settings_problems(const GyroLoopSettings *s, char *msg, size_t n) 
     }
     if (s->sideband_index < 0.0 || s->sideband_count < 0 || s->sideband_first < 0)
         gyro_text_add(msg, n, "sideband_index, sideband_count and sideband_first must be >= 0");
+    if (s->sideband_count > GYRO_SIDEBAND_COUNT_MAX) {
+        snprintf(text, sizeof text, "sideband_count=%d is above its maximum %d (each step sums "
+                 "every tone): use <= %d", (int)s->sideband_count, GYRO_SIDEBAND_COUNT_MAX,
+                 GYRO_SIDEBAND_COUNT_MAX);
+        gyro_text_add(msg, n, text);
+    }
+    if (s->sideband_first > GYRO_SIDEBAND_FIRST_MAX) {
+        snprintf(text, sizeof text, "sideband_first=%d is above its maximum %d: use <= %d",
+                 (int)s->sideband_first, GYRO_SIDEBAND_FIRST_MAX, GYRO_SIDEBAND_FIRST_MAX);
+        gyro_text_add(msg, n, text);
+    }
     return msg[0] ? 1 : 0;
 }
 

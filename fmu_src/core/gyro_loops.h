@@ -14,6 +14,10 @@
 #ifndef GYRO_LOOPS_H
 #define GYRO_LOOPS_H
 
+/* Bounds of the Integer settings (the model description declares the same). */
+#define GYRO_SIDEBAND_COUNT_MAX 1000
+#define GYRO_SIDEBAND_FIRST_MAX 1000000
+
 #include <stddef.h>
 #include <stdint.h>
 
@@ -34,8 +38,9 @@ typedef struct {
     double osc_phase;            /* rad, oscillator loop phase away from 90 deg */
     double sideband_index;       /* modulation index of each sideband tone */
     double sideband_spacing;     /* Hz, df */
-    int32_t sideband_first;      /* first harmonic k of df */
-    int32_t sideband_count;      /* number of tones */
+    int32_t sideband_first;      /* first harmonic k of df, 0..GYRO_SIDEBAND_FIRST_MAX */
+    int32_t sideband_count;      /* number of tones, 0..GYRO_SIDEBAND_COUNT_MAX (each step
+                                    sums them: the bound keeps a step's work bounded) */
     double sideband_start;       /* s, modulation switches on here */
     double ff_xx, ff_xy, ff_yx, ff_yy; /* V/V, feed-forward corrections (pick-off, drive) */
     double excitation_amplitude; /* V, mode 0 tones on Vx and Vy */

@@ -19,6 +19,9 @@
 
 /* Longer held steps (||A h||_inf > STEP_NORM) are split into equal sub-steps. */
 static const double STEP_NORM = 0.5;
+/* Most sub-steps of one held step (bounded work; held_step_split). A state the monitor
+ * accepts needs a few at the largest step accepted (omega h <= OMEGA_H_MAX). */
+static const double SPLIT_MAX = 4096.0;
 /* Process noise of the plant state per step relative to each signal's running peak: a
  * floor far below any pick-off noise. Without it the correlations between the plant state
  * and the parameters of a constant-rate filter reach 1 - 1e-16 within seconds and
@@ -181,13 +184,55 @@ static void held_step_single(const double xi0[5], const double Ah[5][5], double 
         }
 }
 
-/* held_step_single, with ||A h|| > STEP_NORM in equal sub-steps (Jacobians chained). */
-static void held_step_split(const double xi0[5], const double Ah[5][5], double h,
-                            const double MgT[5][16], double s1[4], double Phi[4][4],
+/* held_step_single, with ||A h|| > STEP_NORM in equal sub-steps (Jacobians chained).
+ *
+ * Bounded work: the input column A_aug[:, 4] (b u / w) grows with the force and 1/m
+ * without bound (ux = 1e13 N or m = 1e-22 kg made the sub-step count overflow int, and
+ * ux = 1e9 N took 7-40 s a step). The held step is linear in that column, so when it
+ * alone would need more than SPLIT_MAX sub-steps it is scaled by 2^-k and the constant
+ * state xi0[4] (and MgT's row 4) by 2^k: a power of two, so every product is the same
+ * number and the result is exact; the cost then follows the plant's own matrix. A step
+ * whose plant matrix itself needs more than SPLIT_MAX sub-steps (or is not finite) has no
+ * result: s1, Phi and S are NaN, and the filter is lost with that cause. */
+static void held_step_split(const double xi0_in[5], const double Ah_in[5][5], double h,
+                            const double MgT_in[5][16], double s1[4], double Phi[4][4],
                             double S[4][8]) {
-    const double norm = inf_norm_4x5(Ah);
+    double norm = inf_norm_4x5(Ah_in);
     if (norm <= STEP_NORM) {
-        held_step_single(xi0, Ah, h, MgT, s1, Phi, S);
+        held_step_single(xi0_in, Ah_in, h, MgT_in, s1, Phi, S);
+        return;
+    }
+    double Ah[5][5], xi0[5], MgT[5][16];
+    memcpy(Ah, Ah_in, sizeof Ah);
+    memcpy(xi0, xi0_in, sizeof xi0);
+    memcpy(MgT, MgT_in, sizeof MgT);
+    if (!(norm <= SPLIT_MAX * STEP_NORM)) {
+        double plant = 0.0, column = 0.0; /* ||A h|| of the 4x4 plant part; the input column */
+        for (int i = 0; i < 4; i++) {
+            double r = 0.0;
+            for (int j = 0; j < 4; j++) r += fabs(Ah[i][j]);
+            plant = dmax(plant, r);
+            column = dmax(column, fabs(Ah[i][4]));
+        }
+        if (plant <= SPLIT_MAX * STEP_NORM * 0.5 && isfinite(column)) {
+            int k;
+            frexp(column / dmax(plant, STEP_NORM), &k); /* column 2^-k <= max(plant, 0.5) */
+            for (int i = 0; i < 5; i++) Ah[i][4] = ldexp(Ah[i][4], -k);
+            xi0[4] = ldexp(xi0[4], k);
+            for (int q = 0; q < 16; q++) MgT[4][q] = ldexp(MgT[4][q], -k);
+            norm = inf_norm_4x5((const double(*)[5])Ah);
+        }
+    }
+    if (!(norm <= SPLIT_MAX * STEP_NORM)) {
+        for (int i = 0; i < 4; i++) {
+            s1[i] = NAN;
+            for (int c = 0; c < 4; c++) Phi[i][c] = NAN;
+            for (int q = 0; q < 8; q++) S[i][q] = NAN;
+        }
+        return;
+    }
+    if (norm <= STEP_NORM) {
+        held_step_single(xi0, (const double(*)[5])Ah, h, (const double(*)[16])MgT, s1, Phi, S);
         return;
     }
     const int nsub = (int)ceil(norm / STEP_NORM);
@@ -198,7 +243,8 @@ static void held_step_split(const double xi0[5], const double Ah[5][5], double h
     memcpy(xi, xi0, sizeof xi);
     for (int i = 0; i < 4; i++) Phi_t[i][i] = 1.0;
     for (int k = 0; k < nsub; k++) {
-        held_step_single(xi, Ahs, h / nsub, MgT, s_1, Phi1, S1);
+        held_step_single(xi, (const double(*)[5])Ahs, h / nsub, (const double(*)[16])MgT, s_1,
+                         Phi1, S1);
         for (int i = 0; i < 4; i++) {
             for (int q = 0; q < 8; q++) {
                 double acc = 0.0;
@@ -830,8 +876,10 @@ static void cause_text(const GyroObserver *o, char *buf, size_t n) {
     const GyroMonitorLimits *lim = &o->lim;
     const int cause = (int)m->cause, which = (int)m->which;
     if (cause == GYRO_MON_NONFINITE) {
-        snprintf(buf, n, "its estimate or covariance became non-finite (filter state row %d)",
-                 which);
+        snprintf(buf, n, "its estimate or covariance became non-finite (filter state row %d): "
+                 "numbers beyond the double range, or a held step beyond its bounded work "
+                 "(||A h|| > %g of the plant matrix at the estimated parameters)", which,
+                 SPLIT_MAX * STEP_NORM);
     } else if (cause == GYRO_MON_NOT_SPD) {
         snprintf(buf, n, "its covariance lost positive definiteness (no Cholesky factor): the "
                  "linearization no longer holds");
@@ -1274,6 +1322,51 @@ void gyro_observer_rate_probabilities(const GyroObserver *o, double p[4]) {
     }
 }
 
+static int all_finite(const double *v, size_t count) {
+    for (size_t i = 0; i < count; i++)
+        if (!isfinite(v[i])) return 0;
+    return 1;
+}
+
+/* Every field of a restored state that the step reads, checked (NULL: usable): finite
+ * numbers, probabilities in [0, 1], indices and counts in their ranges, a terminated
+ * message. The rate models over h_cached are rebuilt at the next step (not trusted). */
+static const char *restored_state_problem(const GyroObserver *o) {
+    const int n = o->n, M = o->n_models;
+    if (!(isfinite(o->t) && o->t >= 0.0)) return "a time that is not finite and >= 0";
+    if (!(all_finite(o->peak, 2) && o->peak[0] >= 0.0 && o->peak[1] >= 0.0))
+        return "signal peaks that are not finite and >= 0";
+    if (!all_finite(o->nu2, 2)) return "innovation powers that are not finite";
+    for (int i = 0; i < n; i++)
+        if (!(isfinite(o->x[i]) && all_finite(o->P[i], (size_t)n)))
+            return "a combined estimate or covariance that is not finite";
+    for (int j = 0; j < M; j++) {
+        if (!all_finite(o->xs[j], (size_t)n)) return "a rate model's estimate that is not finite";
+        for (int i = 0; i < n; i++)
+            if (!all_finite(o->Ps[j][i], (size_t)n))
+                return "a rate model's covariance that is not finite";
+        if (!(o->mu[j] >= 0.0 && o->mu[j] <= 1.0 && o->c[j] >= 0.0 && o->c[j] <= 1.0))
+            return "model probabilities outside [0, 1]";
+    }
+    const GyroMonitor *m = &o->mon;
+    if (!all_finite(&m->nis, sizeof *m / sizeof(double))) return "monitor numbers not finite";
+    if (!(m->count >= 0.0 && m->count <= o->lim.block && m->block >= 0.0 &&
+          m->status >= 0.0 && m->status <= GYRO_MON_INNOVATIONS && m->cause >= 0.0 &&
+          m->cause <= GYRO_MON_INNOVATIONS && m->which >= -1.0 && m->which <= 7.0 &&
+          m->status == floor(m->status) && m->cause == floor(m->cause) &&
+          m->which == floor(m->which)))
+        return "a monitor count, verdict or index out of its range";
+    const GyroRefit *r = &o->refit;
+    if (!all_finite(&r->W[0][0], sizeof *r / sizeof(double))) return "re-fit numbers not finite";
+    if (!(r->restarts >= 0.0 && r->restarts <= 1e9 && r->weight >= 0.0))
+        return "a re-fit count out of its range";
+    if (o->status < 0 || o->status > 2 || (o->lost != 0 && o->lost != 1) ||
+        (o->auto_prior != 0 && o->auto_prior != 1))
+        return "an unknown status";
+    if (!memchr(o->lost_message, '\0', sizeof o->lost_message)) return "an unterminated message";
+    return NULL;
+}
+
 int gyro_observer_restored_problem(const GyroObserver *o, const GyroParams *guess,
                                    double Omega_z_0, int pair, const GyroObserverTuning *tun,
                                    char *msg, size_t n) {
@@ -1285,22 +1378,18 @@ int gyro_observer_restored_problem(const GyroObserver *o, const GyroParams *gues
                      memcmp(fresh.theta0, o->theta0, sizeof fresh.theta0) == 0 &&
                      memcmp(fresh.scale, o->scale, sizeof fresh.scale) == 0 &&
                      memcmp(&fresh.lim, &o->lim, sizeof fresh.lim) == 0 &&
-                     memcmp(fresh.MgT, o->MgT, sizeof fresh.MgT) == 0;
+                     memcmp(fresh.MgT, o->MgT, sizeof fresh.MgT) == 0 &&
+                     memcmp(&fresh.wx, &o->wx, sizeof o->wx) == 0 &&
+                     memcmp(&fresh.wy, &o->wy, sizeof o->wy) == 0 &&
+                     memcmp(fresh.hgain, o->hgain, sizeof o->hgain) == 0;
     if (!same) {
         snprintf(msg, n, "the saved observer was built from other parameters (initial guesses, "
                  "measured_pair or tuning) than this instance's");
         return 1;
     }
-    int finite = isfinite(o->t) && isfinite(o->peak[0]) && isfinite(o->peak[1]);
-    for (int i = 0; i < o->n && finite; i++) {
-        finite = isfinite(o->x[i]);
-        for (int j = 0; j < o->n && finite; j++) finite = isfinite(o->P[i][j]);
-    }
-    const double *rf = &o->refit.W[0][0]; /* the re-fit test's numbers, all of them */
-    for (size_t i = 0; i < sizeof o->refit / sizeof(double) && finite; i++)
-        finite = isfinite(rf[i]);
-    if (!finite || o->status < 0 || o->status > 2 || (o->lost != 0 && o->lost != 1)) {
-        snprintf(msg, n, "the saved observer holds non-finite numbers or an unknown status");
+    const char *bad = restored_state_problem(o);
+    if (bad) {
+        snprintf(msg, n, "the saved observer holds %s: restore a state this FMU saved", bad);
         return 1;
     }
     return 0;

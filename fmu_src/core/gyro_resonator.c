@@ -2,6 +2,7 @@
 
 #include "gyro_text.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -71,8 +72,9 @@ int gyro_resonator_problems(const GyroResonatorParams *p, char *msg, size_t n) {
                      gyro_real_text(betas[i], v));
             gyro_text_add(msg, n, text);
         }
-    if (p->cubic_substeps < 1) {
-        snprintf(text, sizeof text, "cubic_substeps=%d must be >= 1", (int)p->cubic_substeps);
+    if (p->cubic_substeps < 1 || p->cubic_substeps > GYRO_CUBIC_SUBSTEPS_MAX) {
+        snprintf(text, sizeof text, "cubic_substeps=%d must be in 1..%d (a step does that many)",
+                 (int)p->cubic_substeps, GYRO_CUBIC_SUBSTEPS_MAX);
         gyro_text_add(msg, n, text);
     }
     if (p->thermal_update_steps < 1) {
@@ -235,7 +237,11 @@ void gyro_expm(int n, const double *M, double *E) {
         for (int i = 0; i < n; i++) c += fabs(M[i * n + j]);
         norm = norm > c ? norm : c;
     }
-    int s = 0;
+    if (!(norm <= DBL_MAX)) { /* inf or NaN: no exponential (bounded work: s below) */
+        for (int i = 0; i < nn; i++) E[i] = NAN;
+        return;
+    }
+    int s = 0; /* at most 1024 + 3: a finite norm is below 2^1024 */
     while (ldexp(norm, -s) > theta13) s++;
     for (int i = 0; i < nn; i++) A[i] = ldexp(M[i], -s);
     matmul(n, A, A, A2);

@@ -24,6 +24,9 @@
 #ifndef GYRO_RESONATOR_H
 #define GYRO_RESONATOR_H
 
+/* Bound of cubic_substeps: a step does this many (the model description declares it). */
+#define GYRO_CUBIC_SUBSTEPS_MAX 1000
+
 #include <stddef.h>
 #include <stdint.h>
 
@@ -48,7 +51,7 @@ typedef struct {
     double Exx, Exy, Eyx, Eyy; /* V/V, drive feed-through into the pick-offs */
     double c_ring;          /* m/V, ring voltage seen by the pick-offs */
     double k3x, k3y;        /* 1/(m^2 s^2), cubic stiffness (eqs. 20-21) */
-    int32_t cubic_substeps; /* splitting substeps when a cubic term is not 0 */
+    int32_t cubic_substeps; /* splitting substeps when a cubic term is not 0, 1..1000 */
     double ring_amplitude;  /* V, each ring tone (0 = off) */
     double ring_frequency_1, ring_frequency_2; /* Hz */
     double noise;           /* V, std of white noise on each pick-off sample */

@@ -115,7 +115,10 @@ _RESONATOR_BOUNDS = {
     **{n: {"min": 0.0, "max": 1.5} for n in ("phi_x", "phi_y")},
     "Px": {"min": 0.0, "nominal": 1e6}, "Py": {"min": 0.0, "nominal": 1e6},
     "c_ring": {"nominal": 1e-7},
-    "cubic_substeps": {"min": 1}, "thermal_update_steps": {"min": 1},
+    # maxima: bounded work a step (cubic_substeps, GYRO_CUBIC_SUBSTEPS_MAX in
+    # gyro_resonator.h); thermal_update_steps is a count, the int32 range
+    "cubic_substeps": {"min": 1, "max": 1000},
+    "thermal_update_steps": {"min": 1, "max": 2147483647},
 }
 
 
@@ -199,7 +202,8 @@ _LOOP_DESCRIPTIONS = {
 }
 _LOOP_BOUNDS = {
     "mode": {"min": 0, "max": 2},
-    "sideband_first": {"min": 0}, "sideband_count": {"min": 0},
+    # maxima: GYRO_SIDEBAND_*_MAX in gyro_loops.h (each step sums every tone)
+    "sideband_first": {"min": 0, "max": 1000000}, "sideband_count": {"min": 0, "max": 1000},
     **{n: {"min": 0.0} for n in ("f_nominal", "amplitude", "q_nominal", "plant_gain",
                                  "pll_bandwidth", "agc_bandwidth", "rebalance_bandwidth",
                                  "demod_cutoff", "rebalance_cutoff", "drive_limit",
