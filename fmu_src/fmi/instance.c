@@ -582,6 +582,24 @@ Status inst_serialize(Instance *inst, void *state, unsigned char *out, size_t si
     return ST_OK;
 }
 
+/* A parameter or input of a restored state outside its declared range (as set would have
+ * refused it): the models trust their variables after initialization. */
+static int stored_range_problem(const GyroModel *m, const unsigned char *data, char *msg,
+                                size_t n) {
+    char why[GYRO_MESSAGE_SIZE];
+    for (size_t i = 0; i < m->n_variables; i++) {
+        const GyroVariable *v = &m->variables[i];
+        if (v->causality == GYRO_OUTPUT) continue;
+        const double value = v->type == GYRO_FLOAT64 ? *(const double *)(data + v->offset)
+                                                     : *(const int32_t *)(data + v->offset);
+        if (range_problem(v, value, why, sizeof why)) {
+            snprintf(msg, n, "it holds %.900s", why);
+            return 1;
+        }
+    }
+    return 0;
+}
+
 Status inst_deserialize(Instance *inst, const unsigned char *in, size_t size, void **state) {
     const size_t need = serial_size(inst);
     const char *why = NULL;
@@ -624,7 +642,9 @@ Status inst_deserialize(Instance *inst, const unsigned char *in, size_t size, vo
     msg[0] = '\0';
     if (!(isfinite(s->time) && isfinite(s->start_time)))
         snprintf(msg, sizeof msg, "its times are not finite");
-    else if (s->mode == MODE_STEP && inst->model->restored &&
+    else if (s->mode == MODE_STEP && stored_range_problem(inst->model, s->data, msg, sizeof msg)) {
+        /* msg says which parameter or input */
+    } else if (s->mode == MODE_STEP && inst->model->restored &&
              inst->model->restored(s->data, msg, sizeof msg) == GYRO_HOOK_ERROR) {
         /* msg says why */
     }
