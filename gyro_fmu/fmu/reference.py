@@ -11,6 +11,7 @@ and compares every output with fmpy's tolerance-band check.
 
 from __future__ import annotations
 
+import logging
 import tempfile
 import zipfile
 import zlib
@@ -26,9 +27,18 @@ from ..cosim.archives import archive_problem
 from ..errors import GyroFmuError
 from ..upstream.fmpy_logger import rearm_default_logger
 
+_log = logging.getLogger(__name__)
 LS_REF_DIR = "extra/org.fmi-standard.fmi-ls-ref"
 MANIFEST = f"{LS_REF_DIR}/fmi-ls-manifest.xml"
 _LS = "http://fmi-standard.org/fmi-ls-manifest"
+
+
+#: Most communication points of a reference run (the shipped ones have 20,001).
+MAX_POINTS = 1e7
+#: The time band (dx samples) may widen a signal's band by at most this fraction of its
+#: range on average: a wider band spans the signal's own time scale and passes a doubled
+#: or scaled reference (measured: --dx 300 passed GyroPlant with x doubled).
+MAX_BAND_SPREAD = 0.25
 
 
 class ReferenceResultError(GyroFmuError, RuntimeError):
@@ -55,15 +65,44 @@ def _experiment(fmu: Path) -> tuple[str, float, float]:
     if de is None or de.stopTime is None or de.stepSize is None:
         raise ReferenceResultError(
             f"{fmu.name} has no DefaultExperiment with stopTime and stepSize")
-    return md.coSimulation.modelIdentifier, float(de.stopTime), float(de.stepSize)
+    stop, step = float(de.stopTime), float(de.stepSize)
+    if not (np.isfinite(step) and step > 0.0):
+        raise ReferenceResultError(f"{fmu.name}: DefaultExperiment stepSize={de.stepSize} s must "
+                                   "be finite and > 0: the FMU is damaged; rebuild it")
+    if not (np.isfinite(stop) and stop > 0.0):
+        raise ReferenceResultError(f"{fmu.name}: DefaultExperiment stopTime={de.stopTime} s must "
+                                   "be finite and > 0: the FMU is damaged; rebuild it")
+    if stop / step > MAX_POINTS:
+        raise ReferenceResultError(f"{fmu.name}: DefaultExperiment stopTime={stop:g} s over "
+                                   f"stepSize={step:g} s makes {stop / step:.3g} communication "
+                                   f"points, above the {MAX_POINTS:.0e} a reference run may "
+                                   "take: the FMU is damaged; rebuild it")
+    return md.coSimulation.modelIdentifier, stop, step
 
 
 def _simulate(fmu: Path, inputs: np.ndarray | None, stop_time: float, step: float) -> np.ndarray:
+    """The default experiment through fmpy. What the FMU logs goes to this module's
+    logger (DEBUG; a container runtime logs its progress as errors: "[ERROR] Solver
+    configure....", fmu-manipulation-toolbox 2.0), and its warnings and errors into the
+    exception of a run that fails."""
+    said: list[tuple[int, str]] = []
+
+    def collect(component, instance, status, category, message) -> None:
+        text = (message or b"").decode("utf-8", "replace").replace("%%", "%")
+        said.append((int(status), text))
+        _log.debug("%s: %s", fmu.name, text)
+
     # fmpy's default callbacks log through a process-global pointer that an earlier
-    # simulate_fmu(logger=...) in this process may have left dangling (a segfault at the
-    # FMU's first message, e.g. the refusal of a run): point it at a live printer first.
-    rearm_default_logger()
-    return simulate_fmu(str(fmu), stop_time=stop_time, output_interval=step, input=inputs)
+    # simulate_fmu(logger=...) in this process may have left dangling: keep it pointing at
+    # a live printer for the runs after this one (gyro_fmu.upstream.fmpy_logger).
+    try:
+        return simulate_fmu(str(fmu), stop_time=stop_time, output_interval=step, input=inputs,
+                            logger=collect)
+    except Exception as exc:
+        told = "; ".join(t for s, t in said if s >= 1)[-2000:]
+        raise RuntimeError(f"{exc}" + (f"; the FMU said: {told}" if told else "")) from exc
+    finally:
+        rearm_default_logger()
 
 
 def write_reference(fmu: Path, inputs_of=None) -> list[str]:
@@ -248,6 +287,7 @@ def validate_reference(fmu: Path, dy: float = 1e-6, dx: int = 1) -> list[SignalC
         raise ReferenceResultError(f"the simulation of the default experiment failed: "
                                    f"{exc}") from None
     t_ref = np.array(reference["time"], dtype=float)
+    band_spread_problem(reference, outputs, dx)
     checks = []
     for var in outputs:
         y_ref = np.array(reference[var], dtype=float)
@@ -255,8 +295,41 @@ def validate_reference(fmu: Path, dy: float = 1e-6, dx: int = 1) -> list[SignalC
         if y.shape != y_ref.shape or not np.all(np.isfinite(y)):
             checks.append(SignalCheck(var, int(y_ref.size), int(y_ref.size), float("inf")))
             continue
-        _, _, _, outside = validate_signal(result["time"], y, t_ref.copy(), y_ref,
-                                           num=t_ref.size, dx=dx, dy=dy)
-        checks.append(SignalCheck(var, int(np.sum(outside)), int(y.size),
+        t = np.array(result["time"], dtype=float)
+        # both ways: the result inside the reference's band and the reference inside the
+        # result's, so that a time band cannot hide a scaled signal in either direction
+        _, _, _, outside = validate_signal(t, y, t_ref.copy(), y_ref, num=t_ref.size, dx=dx,
+                                           dy=dy)
+        _, _, _, back = validate_signal(t_ref, y_ref, t.copy(), y, num=t.size, dx=dx, dy=dy)
+        checks.append(SignalCheck(var, int(np.sum(outside | back)), int(y.size),
                                   float(np.max(np.abs(y - y_ref)))))
     return checks
+
+
+def band_spread(y_ref: np.ndarray, dx: int) -> float:
+    """Mean width that a time band of dx samples adds to y_ref's band, as a fraction of
+    its range (0 for a constant signal)."""
+    from scipy.ndimage import maximum_filter1d, minimum_filter1d
+
+    span = float(np.max(y_ref) - np.min(y_ref))
+    if dx <= 1 or span == 0.0:
+        return 0.0
+    width = maximum_filter1d(y_ref, size=dx) - minimum_filter1d(y_ref, size=dx)
+    return float(np.mean(width)) / span
+
+
+def band_spread_problem(reference: np.ndarray, outputs: list[str], dx: int) -> None:
+    """Refuse a time band that spans a signal's own time scale (MAX_BAND_SPREAD), naming
+    the signal and the largest dx that would do."""
+    for var in outputs:
+        y_ref = np.array(reference[var], dtype=float)
+        spread = band_spread(y_ref, dx)
+        if spread > MAX_BAND_SPREAD:
+            ok = 1
+            while ok < dx and band_spread(y_ref, 2 * ok) <= MAX_BAND_SPREAD:
+                ok *= 2
+            raise ReferenceResultError(
+                f"band dx={dx} samples spans the time scale of {var}: it widens {var}'s band "
+                f"by {100 * spread:.0f} % of its range on average (at most "
+                f"{100 * MAX_BAND_SPREAD:.0f} %), so a scaled or shifted {var} would pass; "
+                f"use --dx <= {ok}")
