@@ -21,10 +21,10 @@ def models_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def pythonfmu_models(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The pythonfmu flavour of every FMU: thin adapters over the same C core, built on
     request."""
-    from gyro_fmu.fmu.build import NATIVE_NAMES
+    from gyro_fmu.fmu.build import PYTHONFMU_NAMES
 
     dest = tmp_path_factory.mktemp("pythonfmu")
-    build_all(dest, NATIVE_NAMES, flavour="pythonfmu")
+    build_all(dest, PYTHONFMU_NAMES, flavour="pythonfmu")
     return dest
 
 
@@ -36,10 +36,9 @@ def pythonfmu_all(models_dir: Path, pythonfmu_models: Path,
     FMU states, the loader). The native FMUs' semantics: test_native_fmi_layer.py."""
     import shutil
 
-    from gyro_fmu.fmu.build import FMU_NAMES, NATIVE_NAMES
+    from gyro_fmu.fmu.build import PYTHONFMU_NAMES
 
     dest = tmp_path_factory.mktemp("pythonfmu_all")
-    for name in FMU_NAMES:
-        shutil.copy2((pythonfmu_models if name in NATIVE_NAMES else models_dir) / f"{name}.fmu",
-                     dest / f"{name}.fmu")
+    for name in PYTHONFMU_NAMES:
+        shutil.copy2(pythonfmu_models / f"{name}.fmu", dest / f"{name}.fmu")
     return dest

@@ -109,7 +109,7 @@ def test_the_check_plan_is_the_slaves_and_without_its_source_every_output(
 
 
 @needs_c_host
-@pytest.mark.parametrize("name", build.FMU_NAMES)
+@pytest.mark.parametrize("name", build.PYTHONFMU_NAMES)
 def test_each_pythonfmu_fmu_runs_on_what_it_ships_alone(pythonfmu_models: Path,
                                                         tmp_path: Path, name: str) -> None:
     """A C host has no gyro_fmu but the FMU's own copy: the modules the adapter can reach

@@ -4,7 +4,8 @@ Ranks, lowest first: core (the C core through ctypes) and studies know nothing o
 other; cosim (the generic FMI master, its stepping loop in the core) and model (physics and
 its FMU interfaces) build on core;
 estimation (the observer and its FMU interface) and results (a run's files, written while
-it goes and read back in chunks) on model; fmu (native and pythonfmu
+it goes and read back in chunks) on model; sensor (the drive, plant and observer as one
+sensor FMU) on estimation; fmu (native and pythonfmu
 builds of those interfaces) on both; doctor on fmu; system
 (scenarios, runs, SSP, container, sweeps) and selfcal on those below; cli on all; the
 FMU slaves of fmu_src/ sit on top. A module may import its own subpackage and any of a
@@ -21,8 +22,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "gyro_fmu"
 RANKS = {"errors": -1, "options": -1, "core": 0, "upstream": 0, "studies": 0, "outputs": 0,
-         "cosim": 1, "model": 1, "estimation": 2, "results": 2, "fmu": 3, "doctor": 4, "system": 5,
-         "selfcal": 5, "spec": 6, "cli": 7, "fmu_src": 8}
+         "cosim": 1, "model": 1, "estimation": 2, "results": 2, "sensor": 2.5, "fmu": 3,
+         "doctor": 4, "system": 5, "selfcal": 5, "spec": 6, "cli": 7, "fmu_src": 8}
 #: Left for 0.1 FMUs only: raises a message on import (see its docstring).
 COMPAT = {PACKAGE / "fmi.py"}
 MAX_LINES = 450

@@ -19,7 +19,7 @@ import pytest
 from fmpy.fmi1 import FMICallException
 from native_host import NativeRun
 
-from gyro_fmu.fmu.build import NATIVE_NAMES, prebuilt_fmu
+from gyro_fmu.fmu.build import NATIVE_NAMES, PYTHONFMU_NAMES, prebuilt_fmu
 
 HERE = Path(__file__).resolve().parent
 VERSIONS = (2, 3)
@@ -224,7 +224,7 @@ def test_call_sequence_fuzz_matches_the_state_machine(version: int, name: str,
     assert refused > 500  # the fuzz reaches the refusals
 
 
-@pytest.mark.parametrize("name", NATIVE_NAMES)
+@pytest.mark.parametrize("name", PYTHONFMU_NAMES)
 def test_call_sequence_fuzz_holds_for_the_pythonfmu_flavour(name: str, pythonfmu_models: Path,
                                                            tmp_path: Path) -> None:
     """The same fuzz (FMI 2.0) against the pythonfmu flavour: its loader keeps the state

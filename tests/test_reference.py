@@ -71,9 +71,10 @@ def test_each_slave_declares_its_reference_inputs_and_is_loaded_under_a_private_
     from gyro_fmu.fmu import build
     from gyro_fmu.fmu.reference import reference_inputs
 
-    assert sorted(FMU_NAMES) == sorted(p.stem for p in build.source_dir().glob("[!_]*.py"))
+    assert sorted(build.PYTHONFMU_NAMES) == sorted(
+        p.stem for p in build.source_dir().glob("[!_]*.py"))
     build._load_slave_file.cache_clear()
-    for name in FMU_NAMES:
+    for name in build.PYTHONFMU_NAMES:
         bare = sys.modules.get(name)  # an FMU run in this process may have imported it
         slave = build.load_slave(name)
         assert slave.__name__ == name and slave.__module__ == build.SLAVE_MODULE_PREFIX + name

@@ -29,6 +29,7 @@ from xml.etree.ElementTree import Element, SubElement, indent, tostring
 from ..estimation.interface import OBSERVER
 from ..model.interfaces import PHYSICS_INTERFACES, FmuInterface
 from ..model.selfcal_interfaces import SELFCAL_INTERFACES
+from ..sensor.interface import SENSOR
 from .macho import universal_macho
 from .units import UNITS
 
@@ -85,11 +86,13 @@ DEFAULT_EXPERIMENT = {"startTime": "0", "stopTime": "0.01", "stepSize": "5e-06"}
 #: The native FMUs, by model identifier: the physics' and the observer's declarations.
 NATIVE_INTERFACES: dict[str, FmuInterface] = {**PHYSICS_INTERFACES,
                                               OBSERVER.identifier: OBSERVER,
-                                              **SELFCAL_INTERFACES}
+                                              **SELFCAL_INTERFACES,
+                                              SENSOR.identifier: SENSOR}
 #: The modules the declarations come from (the prebuilt FMUs' staleness stamp hashes them).
 DECLARATION_FILES = ("model/interfaces.py", "model/selfcal_interfaces.py", "model/resonator.py",
                      "model/loops.py", "estimation/interface.py",
-                     "estimation/observer_tuning.py", "estimation/observer_rate.py")
+                     "estimation/observer_tuning.py", "estimation/observer_rate.py",
+                     "sensor/interface.py")
 
 
 class NativeBuildError(RuntimeError):

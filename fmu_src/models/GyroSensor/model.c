@@ -1,0 +1,142 @@
+/* GyroSensor.fmu: the gyroscope as a sensor (core/gyro_sensor.h): Omega_z in, held over
+ * the communication step; the drive, the gyro and the observer of US 2011/0314910 A1 at a
+ * fixed internal step inside; Omega_meas out through the readout. A communication step
+ * shorter than the internal step is refused with fmi2Discard (nothing changes); a lost
+ * observer refuses its step with fmi2Discard (outputs NaN) and every later one. */
+#include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+
+#include "gyro_sensor.h"
+#include "model.h"
+#include "variables.h"
+
+/* Observer warnings logged per instance (the status output carries every one). */
+#define MAX_WARNINGS 3
+
+typedef struct {
+    Variables v; /* first: the variable table's offsets are into it */
+    GyroSensor sensor;
+    int32_t warnings_logged, saturation_logged;
+} ModelData;
+
+static GyroParams truth_of(const Variables *v) {
+    return (GyroParams){v->kxx, v->kyy, v->kxy, v->dxx, v->dyy, v->dxy, v->m};
+}
+
+static GyroParams design_of(const Variables *v) {
+    return (GyroParams){v->kxx_0, v->kyy_0, v->kxy_0, v->dxx_0, v->dyy_0, v->dxy_0, v->m_0};
+}
+
+static GyroPickoffNoise noise_of(const Variables *v) {
+    return (GyroPickoffNoise){v->noise_x, 0.0, v->noise_y, 0.0};
+}
+
+static GyroTwoToneDrive drive_of(const Variables *v) {
+    return (GyroTwoToneDrive){v->A1, v->f1, v->A2, v->f2};
+}
+
+static GyroReadout readout_of(const Variables *v) {
+    return (GyroReadout){v->internal_step, v->bandwidth, v->full_scale, v->resolution};
+}
+
+static GyroObserverTuning tuning_of(const Variables *v) {
+    GyroObserverTuning t = {0};
+    t.noise_rel = v->noise_rel, t.sigma_z1 = v->sigma_z1, t.sigma_z2 = v->sigma_z2;
+    t.innov_floor = v->innov_floor, t.innov_tau = v->innov_tau;
+    t.rate_model = v->rate_model, t.omega_order = v->omega_order;
+    t.rate_bandwidth = v->rate_bandwidth, t.rate_span = v->rate_span;
+    t.rate_dwell = v->rate_dwell, t.q_Omega = v->q_Omega, t.q_param_rel = v->q_param_rel;
+    t.sigma0_k_rel = v->sigma0_k_rel, t.sigma0_d_rel = v->sigma0_d_rel;
+    t.sigma0_m_rel = v->sigma0_m_rel, t.sigma0_Omega = v->sigma0_Omega;
+    t.sigma0_Omega_rate = v->sigma0_Omega_rate, t.sigma0_Omega_acc = v->sigma0_Omega_acc;
+    t.sigma0_position = v->sigma0_position, t.sigma0_velocity = v->sigma0_velocity;
+    t.joseph = v->joseph;
+    return t;
+}
+
+static void publish(ModelData *d) {
+    double out[5];
+    gyro_sensor_outputs(&d->sensor, out);
+    Variables *v = &d->v;
+    v->Omega_meas = out[0], v->sigma_Omega_meas = out[1], v->Omega_hat = out[2];
+    v->status = out[3], v->saturated = out[4];
+}
+
+static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) {
+    ModelData *d = data;
+    const Variables *v = &d->v;
+    const GyroParams truth = truth_of(v), design = design_of(v);
+    const GyroPickoffNoise noise = noise_of(v);
+    const GyroTwoToneDrive drive = drive_of(v);
+    const GyroReadout readout = readout_of(v);
+    const GyroObserverTuning tuning = tuning_of(v);
+    if (gyro_sensor_init(&d->sensor, &truth, &noise, (uint64_t)v->seed, &design, v->Omega_z_0,
+                         &tuning, &drive, &readout, start_time, msg, n))
+        return GYRO_HOOK_ERROR;
+    d->warnings_logged = d->saturation_logged = 0;
+    publish(d);
+    return gyro_params_warning(&truth, msg, n) ? GYRO_HOOK_WARNING : GYRO_HOOK_OK;
+}
+
+static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) {
+    ModelData *d = data;
+    const Variables *v = &d->v;
+    const double dt = d->sensor.readout.internal_step;
+    if (h < dt * (1.0 - 1e-9)) {
+        snprintf(msg, n, "GyroSensor: communication step %g s is shorter than the internal "
+                 "step %g s: use a step >= internal_step, or a smaller internal_step", h, dt);
+        return GYRO_HOOK_DISCARD;
+    }
+    const int before = d->sensor.observer.status;
+    const int code = gyro_sensor_advance(&d->sensor, v->Omega_z, t + h, msg, n);
+    switch (code) {
+    case GYRO_OBS_TOO_COARSE:
+    case GYRO_OBS_BAD_INPUT: return GYRO_HOOK_ERROR;
+    case GYRO_OBS_REFUSED: return GYRO_HOOK_ERROR;
+    case GYRO_OBS_STEP_LOST:
+        publish(d);
+        d->v.Omega_meas = d->v.sigma_Omega_meas = d->v.Omega_hat = NAN;
+        d->v.status = 2.0;
+        return GYRO_HOOK_DISCARD;
+    default: break;
+    }
+    publish(d);
+    if (d->v.saturated != 0.0 && !d->saturation_logged) {
+        d->saturation_logged = 1;
+        snprintf(msg, n, "GyroSensor: the rate is beyond full scale at t=%.9g s (Omega_z=%g "
+                 "rad/s, full_scale=%g rad/s): Omega_meas saturates at +-full_scale, as a real "
+                 "sensor does, while it lasts (the output 'saturated' says when; logged once)",
+                 t + h, v->Omega_z, v->full_scale);
+        return GYRO_HOOK_WARNING;
+    }
+    if (code == GYRO_OBS_STEP_WARNING && before != 1 && d->warnings_logged < MAX_WARNINGS) {
+        char warning[GYRO_OBS_MESSAGE];
+        gyro_observer_warning(&d->sensor.observer, warning, sizeof warning);
+        d->warnings_logged++;
+        snprintf(msg, n, "GyroSensor: %s%s", warning,
+                 d->warnings_logged == MAX_WARNINGS
+                     ? " (further warnings not logged: the status output carries them)" : "");
+        return GYRO_HOOK_WARNING;
+    }
+    return GYRO_HOOK_OK;
+}
+
+static GyroHookStatus restored(void *data, char *msg, size_t n) {
+    ModelData *d = data;
+    const Variables *v = &d->v;
+    const GyroParams truth = truth_of(v), design = design_of(v);
+    const GyroPickoffNoise noise = noise_of(v);
+    const GyroTwoToneDrive drive = drive_of(v);
+    const GyroReadout readout = readout_of(v);
+    const GyroObserverTuning tuning = tuning_of(v);
+    if (gyro_sensor_restored_problem(&d->sensor, &truth, &noise, &design, v->Omega_z_0,
+                                     &tuning, &drive, &readout, msg, n))
+        return GYRO_HOOK_ERROR;
+    return GYRO_HOOK_OK;
+}
+
+typedef char variables_first[offsetof(ModelData, v) == 0 ? 1 : -1];
+
+const GyroModel GYRO_MODEL = {MODEL_IDENTIFIER, MODEL_TOKEN, VARIABLES, N_VARIABLES,
+                              sizeof(ModelData), setup, step, restored};
