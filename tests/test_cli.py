@@ -162,3 +162,43 @@ def test_every_command_is_in_a_group_with_a_description_and_printed_defaults(cap
     sweep = sub.choices["sweep"].format_help()
     assert "relative spread of every parameter (default: 0.1)" in " ".join(sweep.split())
     assert "(default 0.10)" not in sweep
+
+
+def test_the_exit_code_is_the_verdict_and_a_healthy_noisy_run_passes(models_dir, tmp_path,
+                                                                     capsys):
+    """Newcomer's defect 9: a run whose own verdict failed exited 0, and a healthy noisy
+    run printed 'all within tolerance: False'. The verdict's band is max(tol, 4 sigma)."""
+    noisy = tmp_path / "noisy"
+    assert main(["run", "--stop-time", "0.01", "--noise", "1e-4", "--no-figures", "--models",
+                 str(models_dir), "--out", str(noisy)]) == 0
+    out = capsys.readouterr().out
+    summary = json.loads((noisy / "summary.json").read_text())
+    assert summary["verdict"]["passed"] and "verdict: pass" in out
+    below = [n for n, u in summary["unknowns"].items() if u["tolerance_below_sigma"]]
+    assert below, "the noisy run should have sigmas above tol (else this tests nothing)"
+    # a wrong estimate fails: a constant-rate observer told that the rate is 0.5 rad/s
+    # (it is 1) to within 1e-6 rad/s stays there
+    wrong = tmp_path / "wrong"
+    code = main(["run", "--stop-time", "0.005", "--no-figures", "--models", str(models_dir),
+                 "--out", str(wrong), "--tuning", "rate_model=1", "--tuning",
+                 "sigma0_Omega=1e-6", "--Omega-z-0", "0.5"])
+    out = capsys.readouterr().out
+    assert code == 1 and "verdict: FAIL" in out and "Omega_z: error" in out
+
+
+def test_a_second_run_with_other_settings_does_not_replace_the_first(models_dir, tmp_path,
+                                                                     capsys):
+    out = tmp_path / "run"
+    base = ["run", "--no-figures", "--models", str(models_dir), "--out", str(out)]
+    assert main([*base, "--stop-time", "0.002"]) == 0
+    first = json.loads((out / "summary.json").read_text())["run_id"]
+    assert main([*base, "--stop-time", "0.002"]) == 0  # the same settings: run again
+    capsys.readouterr()
+    assert main([*base, "--stop-time", "0.003"]) == 2
+    err = capsys.readouterr().err
+    assert "holds a run with other settings (stop_time=0.002)" in err and "--force" in err
+    assert json.loads((out / "summary.json").read_text())["run_id"] != first
+    kept = json.loads((out / "summary.json").read_text())
+    assert kept["scenario"]["stop_time"] == 0.002
+    assert main([*base, "--stop-time", "0.003", "--force"]) == 0
+    assert "replaced a run with stop_time=0.002" in capsys.readouterr().out

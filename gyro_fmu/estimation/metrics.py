@@ -20,6 +20,12 @@ from ..model.measurement import UNKNOWNS
 from ..model.parameters import GyroParameters
 
 ESTIMATED = UNKNOWNS
+#: The verdict's band in the observer's own sigmas: an estimate passes within max(tol,
+#: SIGMA_BAND x its RMS sigma over the tail). Its sigma sits at the Cramer-Rao bound
+#: (docs/observer-soundness.md), so a healthy noisy run whose sigma exceeds tol passes;
+#: the tail's errors are slow (a few independent values), so 4 sigma is a 1e-4 to 1e-3
+#: chance per unknown for an honest filter.
+SIGMA_BAND = 4.0
 RELATIVE_TOLERANCE = 0.01
 ZERO_DAMPING_TOLERANCE = 0.1  #: 1/s, where a damping's truth is 0
 
@@ -182,4 +188,23 @@ class RunMetrics:
             out["unknowns"][name] = entry
         out["all_within_tolerance_in_tail"] = all(
             u["max_abs_error_tail"] <= u["tolerance"] for u in out["unknowns"].values())
+        out["verdict"] = verdict(out["unknowns"])
         return out
+
+
+def verdict(unknowns: Mapping[str, dict]) -> dict:
+    """The run's verdict: passed when every unknown's largest tail error is within its
+    band, max(tol, SIGMA_BAND x sigma RMS); else the failures, each in words. A NaN error
+    or sigma fails."""
+    failures = []
+    for name, u in unknowns.items():
+        sigma = u["sigma_rms_tail"]
+        band = max(u["tolerance"], SIGMA_BAND * sigma) if math.isfinite(sigma) else math.nan
+        u["band"] = band
+        if not (u["max_abs_error_tail"] <= band):
+            failures.append(f"{name}: error {u['max_abs_error_tail']:.3g} beyond its band "
+                            f"{band:.3g} (tol {u['tolerance']:.3g}, {SIGMA_BAND:g} x sigma "
+                            f"{sigma:.3g})")
+    return {"passed": not failures, "failures": failures,
+            "rule": f"every unknown within max(tol, {SIGMA_BAND:g} x its own sigma) over "
+                    "the tail"}

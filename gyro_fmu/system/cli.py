@@ -62,7 +62,7 @@ def _ensure_models(models: Path) -> None:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from .run import run_and_report
+    from .run import replaced_run, run_and_report
 
     sc = scenario_from_args(args)
     fmus = {}
@@ -73,6 +73,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                                  "of drive, rate, plant, observer")
         fmus[name] = Path(path)
     out = Path(args.out or f"runs/{args.scenario}")
+    replaced = replaced_run(out, sc, args.force)
     if set(fmus) != {"drive", "rate", "plant", "observer"}:  # ours for the others
         _ensure_models(Path(args.models))
     summary = run_and_report(sc, out, Path(args.models), fmus, figures=not args.no_figures)
@@ -81,8 +82,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     _print_summary(summary)
     print(f"wrote {out}/results.csv, results.parquet, summary.json" + (
         "" if args.no_figures else
-          ", fig3_states.png, fig4_estimates.png"))
-    return 0
+          ", fig3_states.png, fig4_estimates.png") + (f" (replaced a run with {replaced})"
+                                                       if replaced else ""))
+    return 0 if summary["verdict"]["passed"] else 1
 
 
 def _check_beside_summary(results: Path) -> None:
@@ -297,6 +299,10 @@ def _print_summary(summary: dict) -> None:
     om = summary["unknowns"]["Omega_z"]
     print(f"Omega_hat RMS error over the last 20%: {om['rms_error_tail']:.3g} rad/s; "
           f"all within tolerance: {summary['all_within_tolerance_in_tail']}")
+    v = summary.get("verdict")
+    if v is not None:  # summaries written before the verdict have none
+        print(f"verdict: {'pass' if v['passed'] else 'FAIL'} ({v['rule']})"
+              + "".join(f"\n  {f}" for f in v["failures"]))
 
 
 def _scenario_options(r: argparse.ArgumentParser) -> None:
@@ -353,6 +359,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="folder of our FMUs")
     r.add_argument("--out", help="output folder (default runs/SCENARIO)")
     r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    r.add_argument("--force", action="store_true",
+                   help="replace a run with other settings in the output folder")
     r.set_defaults(func=_cmd_run)
 
 

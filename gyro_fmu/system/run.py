@@ -24,7 +24,7 @@ from ..cosim.master import CoSimulationInterrupted, CoSimulationResult, run_cosi
 from ..errors import GyroFmuError
 from ..estimation.metrics import ESTIMATED, RunMetrics, summarize
 from ..fmu.build import FMU_NAMES, MODELS_DIR, ensure_current
-from ..model.parameters import GyroParameters, validate_for_plant
+from ..model.parameters import GyroParameters, ParameterError, validate_for_plant
 from ..model.plant import MeasurementNoise
 from ..outputs import atomic_write, out_folder
 from ..results.columns import OBSERVED, TRUE_RATE, estimate_column, sigma_column
@@ -120,6 +120,29 @@ def read_back(path: Path, truth: GyroParameters, figures: bool = True
         if data is not None:
             data.feed(chunk)
     return metrics, data
+
+
+def replaced_run(out: Path, sc: Scenario, force: bool) -> str:
+    """What an earlier run in `out` had other than sc ("" when nothing or the same): with
+    other settings it is refused unless force (a second run silently replaced the first).
+    A folder being written (its lock held) is left to run_and_report's own refusal."""
+    from ..outputs import LOCK
+
+    if (out / LOCK).exists():
+        return ""
+    try:
+        old = json.loads((out / "summary.json").read_text())["scenario"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return ""
+    new = json.loads(json.dumps(sc.as_dict()))  # as summary.json holds it
+    changed = [f"{k}={old.get(k)!r}" for k in sorted(new) if old.get(k, new[k]) != new[k]]
+    if not changed:
+        return ""
+    said = ", ".join(changed[:4]) + (f" and {len(changed) - 4} more" if len(changed) > 4 else "")
+    if not force:
+        raise ParameterError(f"{out} holds a run with other settings ({said}): give another "
+                             "--out, or --force to replace it")
+    return said
 
 
 def run_and_report(
