@@ -106,3 +106,31 @@ def test_the_container_carries_reference_results_that_validate(container, capsys
 
     assert main(["validate", str(container)]) == 0
     assert "all outputs match their reference results" in capsys.readouterr().out
+
+
+def test_a_scenario_the_container_cannot_initialize_is_named_before_the_run(models_dir):
+    """Newcomer's defect 8: the patent scenario failed inside the container after a bare
+    "damping matrix ... is indefinite" (gyro_fmu.upstream.fmu_container)."""
+    from gyro_fmu.system.container import ContainerError, container_start_values
+    from gyro_fmu.system.scenario import scenario
+
+    with pytest.raises(ContainerError, match=r"damping matrix .* indefinite.*container "
+                                             r"runtime.*run this scenario with `gyro-fmu run`"):
+        container_start_values(scenario("patent", stop_time=0.01), models_dir)
+    assert container_start_values(scenario("default", stop_time=0.01), models_dir)["kxx"] > 0
+
+
+@pytest.mark.parametrize("name", ["default", "patent"])
+def test_every_scenario_the_master_runs_runs_in_the_container_or_is_refused(container,
+                                                                           models_dir, name):
+    from gyro_fmu.system.container import ContainerError, container_start_values
+    from gyro_fmu.system.scenario import scenario
+
+    sc = scenario(name, stop_time=STOP)
+    try:
+        start = container_start_values(sc, models_dir)
+    except ContainerError:
+        return  # named above, with the remedy
+    r = fmpy.simulate_fmu(str(container), stop_time=STOP, output_interval=STEP,
+                          start_values=start)
+    assert np.all(np.isfinite(r["Omega_hat"]))

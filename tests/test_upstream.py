@@ -194,3 +194,22 @@ def test_fmpy_still_rescales_the_time_it_plots() -> None:
     table["time"] = [0.0, 0.005, 0.01]
     create_plotly_figure(table)
     assert table["time"][-1] == pytest.approx(10.0), "fixed upstream: the copy can go"
+
+
+def test_fmu_container_still_fails_on_an_init_warning(models_dir: Path, tmp_path: Path) -> None:
+    """fmu-manipulation-toolbox 2.0: GyroPlant's warning at fmi2ExitInitializationMode
+    (an indefinite damping matrix) fails the container (gyro_fmu.upstream.fmu_container).
+    When this fails, the container runs the patent scenario and the refusal can go."""
+    import fmpy
+    from fmpy.fmi1 import FMICallException
+
+    from gyro_fmu.model.parameters import PRESETS
+    from gyro_fmu.system.container import build_container
+
+    container = build_container(models_dir, tmp_path / "GyroSystem.fmu")
+    told = []
+    patent = vars(PRESETS["patent-table1-corrected"])  # its plant warns: D indefinite
+    with pytest.raises(FMICallException, match="fmi2ExitInitializationMode failed"):
+        fmpy.simulate_fmu(str(container), stop_time=1e-4, output_interval=5e-6,
+                          start_values=dict(patent), logger=lambda *a: told.append(a[-1]))
+    assert any(b"indefinite" in m for m in told)

@@ -29,7 +29,9 @@ from .system import Component, CoSimulationError
 
 
 class LogCollector:
-    """Keeps every FMU log message, so an error can quote what the FMU said."""
+    """Keeps every FMU log message, so an error can quote what the FMU said. FMI 2.0's
+    message is a format string (an FMU writes '%' as '%%' and '#' as '##'): kept as the
+    text it stands for."""
 
     def __init__(self) -> None:
         #: (instance, status, category, message) of every message, in order
@@ -40,7 +42,8 @@ class LogCollector:
         def text(b: bytes | None) -> str:
             return (b or b"").decode("utf-8", "replace")
 
-        self.messages.append((text(instance), int(status), text(category), text(message)))
+        said = text(message).replace("%%", "%").replace("##", "#")
+        self.messages.append((text(instance), int(status), text(category), said))
 
     def recent(self, instance: str, count: int = 5) -> str:
         lines = [m for name, status, _, m in self.messages if name == instance and status > 0]

@@ -11,6 +11,7 @@ a local cluster never take the signal, so there are no worker tracebacks.
 
 from __future__ import annotations
 
+import logging
 import os
 import signal
 import sys
@@ -108,7 +109,11 @@ def local_cluster(n_workers: int):
 
     previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
+        # silence_logs: the workers' own log lines stay out of the user's terminal (a
+        # successful `sweep -n 4` printed a heartbeat traceback as the cluster closed); a
+        # task's error still comes back through its future, with its traceback
         return LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                            dashboard_address=None, preload=[__name__])
+                            dashboard_address=None, preload=[__name__],
+                            silence_logs=logging.CRITICAL)
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)

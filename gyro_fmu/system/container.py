@@ -90,7 +90,16 @@ def exposed_names(models_dir: Path = MODELS_DIR) -> dict[tuple[str, str], str]:
 
 
 def container_start_values(sc: Scenario, models_dir: Path = MODELS_DIR) -> dict[str, float | int]:
-    """The container parameter values of scenario sc (what `fmu_system` sets per FMU)."""
+    """The container parameter values of scenario sc (what `fmu_system` sets per FMU).
+    Raises ContainerError for a scenario the container runtime cannot initialize (a plant
+    that warns at initialization: gyro_fmu.upstream.fmu_container)."""
+    from ..core.library import core_text
+    from ..model.parameters import _c_params
+    from ..upstream.fmu_container import container_init_problem
+
+    problem = container_init_problem(core_text("gyro_params_warning", _c_params(sc.params)))
+    if problem:
+        raise ContainerError(problem)
     names = exposed_names(models_dir)
     components, _ = fmu_system(sc, models_dir)
     return {names[(c.name, p)]: value for c in components for p, value in c.parameters.items()}

@@ -21,6 +21,9 @@ canary per defect that fails once upstream behaves (then the workaround can go).
   hands it a copy (canary `test_fmpy_still_rescales_the_time_it_plots`).
 - libcosimpy 0.0.6's `time_series_real_samples` drops a sample when step 0 is asked for:
   `libcosim_samples` (canary `test_libcosimpy_still_drops_a_sample`).
+- fmu-manipulation-toolbox 2.0's container runtime fails the container when an embedded
+  FMU warns at fmi2ExitInitializationMode: `fmu_container` names it before the run
+  (canary `test_fmu_container_still_fails_on_an_init_warning`).
 
 They matter only for the pythonfmu flavour (built on request), fmpy's default callbacks
 and the SSP run on libcosim: the native FMUs need none of them.
