@@ -114,11 +114,23 @@ def _invoke(argv: list[str], folder: Path, budget: float
     except BaseException as exc:
         escaped = "".join(traceback.format_exception_only(type(exc), exc)).strip()
     finally:
-        _ARMED[0] = False  # first: an alarm from here on must not escape the trial
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
-        os.chdir(cwd)
+        _disarm(previous, cwd)
     return code, out.getvalue(), err.getvalue(), escaped
+
+
+def _disarm(previous: object, cwd: str) -> None:
+    """End a trial's alarm. An alarm whose handler runs on entering the caller's `finally`
+    (a late signal under load: Python runs handlers between bytecodes) would raise out of
+    it and stop the whole test session; here it is absorbed and the disarming done again."""
+    while True:
+        try:
+            _ARMED[0] = False  # first: an alarm from here on must not escape the trial
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, previous)
+            os.chdir(cwd)
+            return
+        except KeyboardInterrupt:
+            continue
 
 
 def run_trial(command: str, option: str | None, value: str, folder: Path, out: str = "out",
