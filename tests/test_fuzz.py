@@ -17,17 +17,29 @@ import pytest
 SECONDS = 4
 
 
+class Targets:
+    """Each FMU's fuzz target, built once per session on first use."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder, self.built = folder, {}
+
+    def __getitem__(self, model: str) -> Path:
+        if model not in self.built:
+            self.built[model] = fuzz_harness.build(model, self.folder)
+        return self.built[model]
+
+
 @pytest.fixture(scope="module")
-def targets(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def targets(tmp_path_factory: pytest.TempPathFactory) -> Targets:
     why = fuzz_harness.problem()
     if why:
         pytest.skip(f"no libFuzzer here: {why}")
-    return tmp_path_factory.mktemp("fuzz")
+    return Targets(tmp_path_factory.mktemp("fuzz"))
 
 
 @pytest.mark.parametrize("model", fuzz_harness.MODELS)
 def test_a_short_fuzz_run_finds_nothing(targets, model, tmp_path):
-    target = fuzz_harness.build(model, targets)
+    target = targets[model]
     corpus = tmp_path / "corpus"
     shutil.copytree(fuzz_harness.CORPUS / model, corpus)  # the checked-in one stays as is
     assert len(list(corpus.iterdir())) >= 10, "the checked-in corpus is missing"
@@ -45,6 +57,6 @@ def test_every_input_that_found_a_defect_replays_clean(targets):
     models = sorted({p.parent.name for p in found})
     assert {"GyroObserver", "GyroLoops", "GyroResonator"} <= set(models)
     for model in models:
-        target = fuzz_harness.build(model, targets / "replay")
+        target = targets[model]
         proc = fuzz_harness.replay(target, [p for p in found if p.parent.name == model])
         assert proc.returncode == 0, f"{model}: {proc.stderr[-3000:]}"

@@ -67,13 +67,13 @@ def _experiment(fmu: Path) -> tuple[str, float, float]:
             f"{fmu.name} has no DefaultExperiment with stopTime and stepSize")
     stop, step = float(de.stopTime), float(de.stepSize)
     if not (np.isfinite(step) and step > 0.0):
-        raise ReferenceResultError(f"{fmu.name}: DefaultExperiment stepSize={de.stepSize} s must "
+        raise ReferenceResultError(f"DefaultExperiment stepSize={de.stepSize} s must "
                                    "be finite and > 0: the FMU is damaged; rebuild it")
     if not (np.isfinite(stop) and stop > 0.0):
-        raise ReferenceResultError(f"{fmu.name}: DefaultExperiment stopTime={de.stopTime} s must "
+        raise ReferenceResultError(f"DefaultExperiment stopTime={de.stopTime} s must "
                                    "be finite and > 0: the FMU is damaged; rebuild it")
     if stop / step > MAX_POINTS:
-        raise ReferenceResultError(f"{fmu.name}: DefaultExperiment stopTime={stop:g} s over "
+        raise ReferenceResultError(f"DefaultExperiment stopTime={stop:g} s over "
                                    f"stepSize={step:g} s makes {stop / step:.3g} communication "
                                    f"points, above the {MAX_POINTS:.0e} a reference run may "
                                    "take: the FMU is damaged; rebuild it")
@@ -87,7 +87,8 @@ def _simulate(fmu: Path, inputs: np.ndarray | None, stop_time: float, step: floa
     exception of a run that fails."""
     said: list[tuple[int, str]] = []
 
-    def collect(component, instance, status, category, message) -> None:
+    def collect(*args) -> None:  # fmpy: (instance name, status, category, message)
+        status, message = args[-3], args[-1]
         text = (message or b"").decode("utf-8", "replace").replace("%%", "%")
         said.append((int(status), text))
         _log.debug("%s: %s", fmu.name, text)
