@@ -94,8 +94,8 @@ def test_saturation_is_logged_once():
 def test_a_step_shorter_than_the_internal_step_is_refused_and_nothing_changes():
     inst = Instance(prebuilt_fmu("GyroSensor"))
     try:
-        assert inst.step(1e-6) == 2  # fmi2Discard
-        assert "communication step 1e-06 s is shorter than the internal step 5e-06 s" in \
+        assert inst.step(1e-6) == 2  # fmi2Discard (the default gyro runs at 20 us inside)
+        assert "communication step 1e-06 s is shorter than the internal step 2e-05 s" in \
             inst.messages()
         assert inst.step(1e-3) == 0
     finally:
@@ -158,8 +158,8 @@ def test_twenty_gyros_that_are_not_presets_read_their_rate_within_their_sigma():
     """Random gyros (gyro_fmu.sensor.gyros: modes 2-8 kHz, splits 1-25 %, Q 300-1e4,
     couplings up to 15 %, masses 1e-9 to 1e-6 kg), each from design values 5-20 % off, at
     a constant 1 rad/s: over the last 0.1 s of 0.3 s, the output's mean error is within
-    4 of its stated sigmas and the status stays 0 (measured: RMS bias/sigma 0.80, worst
-    1.68, seed 1)."""
+    4 of its stated sigmas and the status stays 0 (measured: RMS bias/sigma 1.09, worst
+    3.01 at seed 1; 1.01 / 1.79 and 0.81 / 1.68 at seeds 2 and 3)."""
     from gyro_fmu.sensor.gyros import random_gyro, sensor_settings
 
     path = prebuilt_fmu("GyroSensor")
@@ -187,9 +187,9 @@ def test_twenty_gyros_that_are_not_presets_read_their_rate_within_their_sigma():
 def test_a_communication_step_beyond_the_bounded_work_is_refused_by_name():
     inst = Instance(prebuilt_fmu("GyroSensor"))
     try:
-        assert inst.step(2.0) == 3  # fmi2Error: nothing done, no minutes of CPU
+        assert inst.step(5.0) == 3  # fmi2Error: nothing done, no minutes of CPU
         said = inst.messages()
-        assert "needs 4e+05 internal steps of 5e-06 s, above the 200000" in said, said
-        assert "use communication steps of at most 1 s" in said
+        assert "needs 2.5e+05 internal steps of 2e-05 s, above the 200000 one call may do: " \
+               "use communication steps of at most 4 s" in said, said
     finally:
         inst.slave.freeInstance()

@@ -13,19 +13,26 @@ static const double MAX_LEVELS = 1e12;
 
 size_t gyro_sensor_size(void) { return sizeof(GyroSensor); }
 
-int gyro_readout_problems(const GyroReadout *r, char *msg, size_t n) {
+double gyro_sensor_step(const GyroReadout *r, const GyroParams *design) {
+    if (r->internal_step > 0.0) return r->internal_step;
+    const double omega = sqrt(design->kxx > design->kyy ? design->kxx : design->kyy);
+    const double h = GYRO_SENSOR_OMEGA_H / omega;
+    return h < GYRO_SENSOR_STEP_MAX ? h : GYRO_SENSOR_STEP_MAX;
+}
+
+/* The readout's own problems at internal step h (> 0). */
+static int readout_problems(const GyroReadout *r, double h, char *msg, size_t n) {
     char a[GYRO_REAL_TEXT], b[GYRO_REAL_TEXT], text[300];
     if (n) msg[0] = '\0';
-    if (!(isfinite(r->internal_step) && r->internal_step > 0.0)) {
-        snprintf(text, sizeof text, "internal_step=%s s must be finite and > 0",
+    if (!(isfinite(r->internal_step) && r->internal_step >= 0.0)) {
+        snprintf(text, sizeof text, "internal_step=%s s must be 0 (auto) or finite and > 0",
                  gyro_real_text(r->internal_step, a));
         gyro_text_add(msg, n, text);
     }
-    if (!(isfinite(r->bandwidth) && r->bandwidth > 0.0 &&
-          r->bandwidth * r->internal_step < 0.25)) {
+    if (!(isfinite(r->bandwidth) && r->bandwidth > 0.0 && r->bandwidth * h < 0.25)) {
         snprintf(text, sizeof text, "bandwidth=%s Hz must be > 0 and below a quarter of the "
                  "internal sample rate (%s Hz): lower it or the internal_step",
-                 gyro_real_text(r->bandwidth, a), gyro_real_text(0.25 / r->internal_step, b));
+                 gyro_real_text(r->bandwidth, a), gyro_real_text(0.25 / h, b));
         gyro_text_add(msg, n, text);
     }
     if (!(isfinite(r->full_scale) && r->full_scale > 0.0)) {
@@ -41,6 +48,18 @@ int gyro_readout_problems(const GyroReadout *r, char *msg, size_t n) {
         gyro_text_add(msg, n, text);
     }
     return msg[0] ? 1 : 0;
+}
+
+int gyro_readout_problems(const GyroReadout *r, char *msg, size_t n) {
+    const double h = r->internal_step > 0.0 ? r->internal_step : GYRO_SENSOR_STEP_MAX;
+    return readout_problems(r, h, msg, n);
+}
+
+/* The plant's noise per sample at step h: the same density as `noise` per
+ * GYRO_SENSOR_NOISE_STEP. */
+static GyroPickoffNoise per_sample(const GyroPickoffNoise *noise, double h) {
+    const double f = sqrt(GYRO_SENSOR_NOISE_STEP / h);
+    return (GyroPickoffNoise){noise->x * f, noise->vx * f, noise->y * f, noise->vy * f};
 }
 
 /* 2nd-order Butterworth low-pass by the bilinear transform, prewarped at f_c. */
@@ -74,7 +93,14 @@ int gyro_sensor_init(GyroSensor *s, const GyroParams *truth, const GyroPickoffNo
         snprintf(msg, n, "the gyro as fabricated is unusable: %s", text);
         return 1;
     }
-    if (gyro_drive_problems(drive, msg, n) || gyro_readout_problems(readout, msg, n)) return 1;
+    if (gyro_params_problems(design, text, sizeof text)) {
+        snprintf(msg, n, "the design values are unusable: %s", text);
+        return 1;
+    }
+    const double h = gyro_sensor_step(readout, design);
+    if (gyro_drive_problems(drive, msg, n) || readout_problems(readout, h, msg, n) ||
+        gyro_drive_nyquist_problem(drive, h, msg, n))
+        return 1;
     if (!isfinite(t0)) {
         snprintf(msg, n, "start time %g s must be finite", t0);
         return 1;
@@ -85,29 +111,28 @@ int gyro_sensor_init(GyroSensor *s, const GyroParams *truth, const GyroPickoffNo
         return 1;
     }
     const double omega = s->observer.wx > s->observer.wy ? s->observer.wx : s->observer.wy;
-    if (omega * readout->internal_step > 1.2) { /* GyroObserver's warning level (OMEGA_H_WARN) */
+    if (omega * h > 1.2) { /* GyroObserver's warning level (OMEGA_H_WARN) */
         snprintf(msg, n, "internal_step=%g s is too coarse for the gyro's design resonance "
-                 "(%.5g Hz, omega h = %.3g > 1.2): use internal_step <= %.3g s",
-                 readout->internal_step, omega / (2.0 * GYRO_PI),
-                 omega * readout->internal_step, 1.2 / omega);
+                 "(%.5g Hz, omega h = %.3g > 1.2): use internal_step <= %.3g s, or 0 (auto)",
+                 h, omega / (2.0 * GYRO_PI), omega * h, 1.2 / omega);
         return 1;
     }
     s->drive = *drive;
     s->readout = *readout;
+    s->h = h;
     s->t0 = t0;
-    gyro_plant_init(&s->plant, truth, noise, seed, NULL);
-    butterworth(readout->bandwidth, readout->internal_step, s->b, s->a);
+    const GyroPickoffNoise sigma = per_sample(noise, h);
+    gyro_plant_init(&s->plant, truth, &sigma, seed, NULL);
+    butterworth(readout->bandwidth, h, s->b, s->a);
     filter_rest(s, Omega_z_0);
     return 0;
 }
 
-double gyro_sensor_time(const GyroSensor *s) {
-    return s->t0 + (double)s->k * s->readout.internal_step;
-}
+double gyro_sensor_time(const GyroSensor *s) { return s->t0 + (double)s->k * s->h; }
 
 int gyro_sensor_advance(GyroSensor *s, double Omega_z, double t_end, char *msg, size_t n) {
     char num[GYRO_REAL_TEXT];
-    const double h = s->readout.internal_step;
+    const double h = s->h;
     if (gyro_rate_problem(&s->plant.p, "Omega_z", Omega_z, msg, n)) return GYRO_OBS_BAD_INPUT;
     const double steps = floor((t_end - gyro_sensor_time(s)) / h * (1.0 + 1e-12) + 1e-9);
     if (!(steps <= GYRO_SENSOR_MAX_STEPS)) {
@@ -158,12 +183,19 @@ int gyro_sensor_restored_problem(GyroSensor *s, const GyroParams *truth,
                  "instance's: set the parameters it was saved with");
         return 1;
     }
-    if (gyro_plant_restored_problem(&s->plant, truth, noise, msg, n)) return 1;
+    const double h = gyro_sensor_step(readout, design);
+    const GyroPickoffNoise sigma = per_sample(noise, h);
+    if (memcmp(&s->h, &h, sizeof h) != 0) {
+        snprintf(msg, n, "the saved sensor runs at another internal step than this instance's "
+                 "settings give: set the parameters it was saved with");
+        return 1;
+    }
+    if (gyro_plant_restored_problem(&s->plant, truth, &sigma, msg, n)) return 1;
     if (gyro_observer_restored_problem(&s->observer, design, Omega_z_0, 1, tuning, msg, n))
         return 1;
     s->observer.h_cached = -1.0; /* rate models rebuilt at the next step */
     double b[3], a[3];
-    butterworth(readout->bandwidth, readout->internal_step, b, a);
+    butterworth(readout->bandwidth, h, b, a);
     const int same = memcmp(b, s->b, sizeof b) == 0 && memcmp(a, s->a, sizeof a) == 0;
     if (!same || !isfinite(s->w[0]) || !isfinite(s->w[1]) || !isfinite(s->y) ||
         !isfinite(s->t0) || s->k < 0 || s->k > (int64_t)1 << 52) {

@@ -26,9 +26,18 @@
 /* Most internal steps one call may do (bounded work: 1 s of sensor time at 5 us, about
  * 3 s of CPU with the adaptive observer). */
 #define GYRO_SENSOR_MAX_STEPS 200000
+/* internal_step 0 (auto): h = min(GYRO_SENSOR_STEP_MAX, GYRO_SENSOR_OMEGA_H / omega), omega
+ * the larger design resonance (rad/s): 12.6 samples per period of the faster mode. The
+ * observer's accuracy at a fixed noise density is the same at 5 and 20 us on the default
+ * gyro (docs/gyro-sensor.md), and the cost is a quarter. */
+#define GYRO_SENSOR_STEP_MAX 20e-6
+#define GYRO_SENSOR_OMEGA_H 0.5
+/* The pick-off noise is given as its std per sample at this step; at another internal step
+ * h the std per sample is noise sqrt(GYRO_SENSOR_NOISE_STEP / h): the density is the same. */
+#define GYRO_SENSOR_NOISE_STEP 5e-6
 
 typedef struct {
-    double internal_step; /* s */
+    double internal_step; /* s (0: auto, GYRO_SENSOR_STEP_MAX) */
     double bandwidth;     /* Hz, -3 dB of the output filter */
     double full_scale;    /* rad/s, the output's limit */
     double resolution;    /* rad/s per least significant bit (0: not quantized) */
@@ -36,7 +45,8 @@ typedef struct {
 
 typedef struct {
     GyroTwoToneDrive drive;
-    GyroReadout readout;
+    GyroReadout readout; /* as given */
+    double h;            /* the internal step used, s */
     GyroPlant plant;
     GyroObserver observer;
     double b[3], a[3];   /* the filter's coefficients (a[0] = 1) */
@@ -49,8 +59,13 @@ typedef struct {
 /* Why the readout settings are unusable ("" and 0 when usable). */
 int gyro_readout_problems(const GyroReadout *r, char *msg, size_t n);
 
-/* Build the sensor: truth and noise are the gyro as fabricated, design the observer's
- * start (its initial guesses), Omega_z_0 its initial rate. Returns 0, or 1 with msg. */
+/* The internal step the sensor runs at: r->internal_step, or for 0 the auto rule above
+ * from the design's larger resonance. */
+double gyro_sensor_step(const GyroReadout *r, const GyroParams *design);
+
+/* Build the sensor: truth and noise are the gyro as fabricated (noise: the std per sample
+ * at GYRO_SENSOR_NOISE_STEP), design the observer's start (its initial guesses),
+ * Omega_z_0 its initial rate. Returns 0, or 1 with msg. */
 int gyro_sensor_init(GyroSensor *s, const GyroParams *truth, const GyroPickoffNoise *noise,
                      uint64_t seed, const GyroParams *design, double Omega_z_0,
                      const GyroObserverTuning *tuning, const GyroTwoToneDrive *drive,

@@ -19,7 +19,16 @@ from ..estimation.observer_tuning import ObserverTuning
 from ..model.drive import TwoToneDrive
 from ..model.parameters import PARAMETER_UNITS, GyroParameters
 from ..model.plant import GyroPlantModel, MeasurementNoise
-from .interface import SENSOR
+from .interface import NOISE_STEP, OMEGA_H, SENSOR, STEP_MAX
+
+
+def internal_step(settings: Mapping[str, float]) -> float:
+    """The step the sensor runs at: internal_step, or for 0 the auto rule (the faster
+    design mode sampled at omega h = 0.5, at most 20 us)."""
+    if settings["internal_step"] > 0:
+        return float(settings["internal_step"])
+    omega = max(settings["kxx_0"], settings["kyy_0"]) ** 0.5
+    return min(STEP_MAX, OMEGA_H / omega)
 
 
 def defaults() -> dict[str, float]:
@@ -47,11 +56,12 @@ def run_chain(settings: Mapping[str, float], Omega_z: Callable[[float], float],
     truth = GyroParameters(**{n: float(s[n]) for n in PARAMETER_UNITS})
     design = GyroParameters(**{n: float(s[f"{n}_0"]) for n in PARAMETER_UNITS})
     tuning = ObserverTuning(**{f: s[f] for f in ObserverTuning.__dataclass_fields__})
-    plant = GyroPlantModel(truth, MeasurementNoise(x=s["noise_x"], y=s["noise_y"]),
+    h = internal_step(s)
+    f = (NOISE_STEP / h) ** 0.5  # the same noise density at any step
+    plant = GyroPlantModel(truth, MeasurementNoise(x=s["noise_x"] * f, y=s["noise_y"] * f),
                            int(s["seed"]))
     observer = GyroStateObserver(design, float(s["Omega_z_0"]), 1, tuning)
     drive = TwoToneDrive(A1=s["A1"], f1=s["f1"], A2=s["A2"], f2=s["f2"])
-    h = float(s["internal_step"])
     n_times = len(times)
     hats, sigmas, status = np.empty(n_times), np.empty(n_times), np.empty(n_times)
     hat = np.empty(0)

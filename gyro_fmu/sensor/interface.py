@@ -35,10 +35,15 @@ _DRIVE = TwoToneDrive(A1=_AMPLITUDE, A2=_AMPLITUDE)
 
 #: Pick-off noise on by default: 1e-4 of each measured position's amplitude in the
 #: default drive (x 6.6e-9 m, y 4.8e-9 m) per 5 us sample, a displacement noise density
-#: of about 2e-15 m/sqrt(Hz): a good capacitive readout.
+#: of about 2e-15 m/sqrt(Hz): a good capacitive readout. Given per sample at
+#: NOISE_STEP; the core keeps the density at any internal step (gyro_sensor.h).
 NOISE_X, NOISE_Y = 6.6e-13, 4.8e-13
-#: Readout defaults: a 16-bit output over +-full_scale (about 2000 deg/s), 100 Hz.
-INTERNAL_STEP = 5e-6
+NOISE_STEP = 5e-6
+#: Internal step: 0 chooses it from the design's faster mode (gyro_sensor_step: at most
+#: 20 us, 12.6 samples per period of that mode). Readout: a 16-bit output over
+#: +-full_scale (about 2000 deg/s), 100 Hz.
+INTERNAL_STEP = 0.0
+STEP_MAX, OMEGA_H = 20e-6, 0.5
 BANDWIDTH = 100.0
 FULL_SCALE = 35.0
 RESOLUTION = 2 * FULL_SCALE / 2 ** 16
@@ -77,9 +82,10 @@ SENSOR = FmuInterface(
         *(Var(n, "parameter", getattr(_TRUTH, n), PARAMETER_UNITS[n],
               f"as fabricated: {d}", **PARAMETER_BOUNDS[n]) for n, d in _DESCRIPTIONS.items()),
         Var("noise_x", "parameter", NOISE_X, "m", "std of white noise on the measured x "
-            "per internal step", min=0.0, nominal=1e-12),
+            "per 5 us sample (the density is kept at any internal step: per sample "
+            "noise_x sqrt(5 us / internal step))", min=0.0, nominal=1e-12),
         Var("noise_y", "parameter", NOISE_Y, "m", "std of white noise on the measured y "
-            "per internal step", min=0.0, nominal=1e-12),
+            "per 5 us sample (as noise_x)", min=0.0, nominal=1e-12),
         Var("seed", "parameter", 0, None, "seed of the noise generator", integer=True, min=0,
             max=SEED_MAX),
         *(Var(f"{n}_0", "parameter", _DESIGN[n], PARAMETER_UNITS[n],
@@ -93,8 +99,8 @@ SENSOR = FmuInterface(
         *(replace(v, start=TUNING_STARTS.get(v.name, v.start))
           for v in dataclass_parameters(ObserverTuning)),
         Var("internal_step", "parameter", INTERNAL_STEP, "s",
-            "fixed step of the drive, the gyro and the observer inside", min=0.0,
-            min_exclusive=True, max=1e-3),
+            "fixed step of the drive, the gyro and the observer inside; 0: chosen from the "
+            "design's faster mode (0.5 / omega, at most 20 us)", min=0.0, max=1e-3),
         Var("bandwidth", "parameter", BANDWIDTH, "Hz",
             "-3 dB bandwidth of the output filter (2nd-order Butterworth)", min=0.0,
             min_exclusive=True),

@@ -82,7 +82,7 @@ static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) 
 static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) {
     ModelData *d = data;
     const Variables *v = &d->v;
-    const double dt = d->sensor.readout.internal_step;
+    const double dt = d->sensor.h;
     if (h < dt * (1.0 - 1e-9)) {
         snprintf(msg, n, "GyroSensor: communication step %g s is shorter than the internal "
                  "step %g s: use a step >= internal_step, or a smaller internal_step", h, dt);
