@@ -24,6 +24,7 @@ import io
 import os
 import signal
 import traceback
+import warnings
 from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -56,6 +57,7 @@ class Trial:
     outcome: str
     code: int | None
     said: str  #: the last line of stderr, or the traceback's last line
+    warned: tuple[str, ...] = ()  #: the Python warnings the trial raised (category: text)
 
 
 def typed_options() -> Iterator[tuple[str, str]]:
@@ -100,21 +102,24 @@ def _invoke(argv: list[str], folder: Path, budget: float
     escaped = None
     previous = signal.signal(signal.SIGALRM, _alarm)
     cwd = os.getcwd()
-    try:
-        os.chdir(folder)
-        _ARMED[0] = True
-        signal.setitimer(signal.ITIMER_REAL, budget)
-        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
-            try:
-                code = cli.main(argv)
-            except SystemExit as exc:  # argparse
-                code = exc.code if isinstance(exc.code, int) else 2
-    except KeyboardInterrupt:
-        code = 130
-    except BaseException as exc:
-        escaped = "".join(traceback.format_exception_only(type(exc), exc)).strip()
-    finally:
-        _disarm(previous, cwd)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            os.chdir(folder)
+            _ARMED[0] = True
+            signal.setitimer(signal.ITIMER_REAL, budget)
+            with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
+                try:
+                    code = cli.main(argv)
+                except SystemExit as exc:  # argparse
+                    code = exc.code if isinstance(exc.code, int) else 2
+        except KeyboardInterrupt:
+            code = 130
+        except BaseException as exc:
+            escaped = "".join(traceback.format_exception_only(type(exc), exc)).strip()
+        finally:
+            _disarm(previous, cwd)
+    _invoke.warned = tuple(f"{w.category.__name__}: {w.message}" for w in caught)
     return code, out.getvalue(), err.getvalue(), escaped
 
 
@@ -162,7 +167,7 @@ def run_trial(command: str, option: str | None, value: str, folder: Path, out: s
         outcome = "silent"
     else:
         outcome = "ran"
-    return Trial(command, option, value, outcome, code, said[:300])
+    return Trial(command, option, value, outcome, code, said[:300], _invoke.warned)
 
 
 #: Whether a trial is running: the alarm interrupts only then. Under load an alarm came
