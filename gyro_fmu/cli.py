@@ -13,9 +13,10 @@ from .errors import GyroFmuError
 
 
 def _cmd_build(args: argparse.Namespace) -> int:
-    from .fmu.build import build_all
+    from .fmu.build import FMU_NAMES, PYTHONFMU_NAMES, build_all
 
-    for path in build_all(Path(args.dest), flavour=args.flavour):
+    names = PYTHONFMU_NAMES if args.flavour == "pythonfmu" else FMU_NAMES
+    for path in build_all(Path(args.dest), names, flavour=args.flavour):
         print(f"built {path.resolve()}")
     return 0
 
@@ -90,7 +91,8 @@ def parser() -> argparse.ArgumentParser:
                    help="output folder, under the working directory")
     b.add_argument("--flavour", choices=("native", "pythonfmu"), default="native",
                    help="native: the package's C FMUs; pythonfmu: pythonfmu "
-                   "adapters over the same C core instead (they need this Python)")
+                   "adapters over the same C core instead (they need this Python; "
+                   "GyroSensor has none)")
     b.set_defaults(func=_cmd_build)
 
     f = sub.add_parser("fmus", help=f"copy the native FMUs ({', '.join(FMU_NAMES)}; every "
