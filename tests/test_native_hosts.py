@@ -30,7 +30,10 @@ from gyro_fmu.fmu.reference import LS_REF_DIR, parse_csv
 
 HOST_C = Path(__file__).resolve().parents[1] / "gyro_fmu" / "doctor" / "chost" / "fmu_host.c"
 TOLERANCE = 1e-12
-TOLERANCES = {"GyroObserver": 1e-9}
+#: GyroObserver's and GyroSensor's filters amplify libm's last-bit differences between
+#: platforms (measured: GyroSensor's win64 DLL 1.2e-11 of range: its output filter at
+#: f_c / f_s = 2e-3 scales rounding by about (f_s / f_c)^2)
+TOLERANCES = {"GyroObserver": 1e-9, "GyroSensor": 1e-9}
 
 
 def _reference(fmu: Path, name: str) -> tuple[np.ndarray, np.ndarray | None]:
