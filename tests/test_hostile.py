@@ -189,7 +189,7 @@ def _interrupt_when_stepping(folder: Path) -> tuple[threading.Thread, threading.
 
 
 def test_ctrl_c_during_a_run_keeps_what_was_simulated_and_exits_130(models_dir, tmp_path,
-                                                                     capsys):
+                                                                     capsys, terminal_sigint):
     warm, out = tmp_path / "warm", tmp_path / "run"
     main(_run(models_dir, warm, "--stop-time", "0.004"))  # warm: kernels and archives loaded
     handler = signal.getsignal(signal.SIGINT)  # seen once: exit 0 in a full run (stop 39)
@@ -212,7 +212,7 @@ def test_ctrl_c_during_a_run_keeps_what_was_simulated_and_exits_130(models_dir, 
 
 
 def test_ctrl_c_before_the_first_step_is_an_interrupt_with_nothing_written(
-        models_dir, tmp_path, monkeypatch):
+        models_dir, tmp_path, monkeypatch, terminal_sigint):
     import gyro_fmu.cosim.master as master
 
     real = master.instantiate
@@ -228,7 +228,7 @@ def test_ctrl_c_before_the_first_step_is_an_interrupt_with_nothing_written(
     assert not (tmp_path / "run").exists()
 
 
-def test_co_simulation_interrupted_carries_the_points_so_far(models_dir):
+def test_co_simulation_interrupted_carries_the_points_so_far(models_dir, terminal_sigint):
     from gyro_fmu.system.run import run_fmus
 
     sc = scenario("default", stop_time=2.0)
