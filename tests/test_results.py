@@ -79,6 +79,10 @@ def test_pandas_and_fmpys_plotting_read_the_parquet_file(tmp_path):
     frame = pandas.read_parquet(tmp_path / "results.parquet")
     assert list(frame.columns) == list(COLUMNS)
     assert np.array_equal(frame.to_numpy(), rows, equal_nan=True)
+    # each column's unit where a pandas user looks (df.attrs), kept through a round trip
+    assert frame.attrs["units"]["plant.x"] == "m" and frame.attrs["units"]["time"] == "s"
+    frame.to_parquet(tmp_path / "again.parquet")
+    assert pandas.read_parquet(tmp_path / "again.parquet").attrs["units"]["plant.x"] == "m"
     figure = create_plotly_figure(read_results(tmp_path / "results.parquet"))
     assert [trace.name for trace in figure.data] == list(COLUMNS[1:])
 

@@ -96,10 +96,13 @@ class ResultFiles:
         import pyarrow.parquet as pq
 
         meta = {"run_id": self.run_id, "units": self.units}
+        # PANDAS_ATTRS: pandas (2.1 and later) puts it into DataFrame.attrs on
+        # read_parquet, so df.attrs["units"] holds each column's unit
         self._schema = pa.schema([pa.field(c, pa.float64(), nullable=False,
                                            metadata={"unit": self.units[c]})
                                   for c in self.columns],
-                                 metadata={METADATA_KEY: json.dumps(meta).encode()})
+                                 metadata={METADATA_KEY: json.dumps(meta).encode(),
+                                           b"PANDAS_ATTRS": json.dumps(meta).encode()})
         try:
             self._csv = _HashedFile(self._temp(CSV), self._sha)
             # the header as before: names unquoted (Arrow would quote each)
