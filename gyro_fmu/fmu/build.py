@@ -1,10 +1,10 @@
-"""Put the product's FMUs into a models folder: the native ones from the package, the
-others built by pythonfmu from fmu_src/, shipping the gyro_fmu package inside.
+"""Put the product's FMUs into a models folder: the native C FMUs from the package, or on
+request their pythonfmu flavour built from fmu_src/, shipping the gyro_fmu package inside.
 
-GyroPlant, TwoToneDrive and RateProfile are native C FMUs (gyro_fmu.fmu.native), built
-with the package (`pip install`) and copied from it; `flavour="pythonfmu"` builds their
-pythonfmu adapters over the same C core instead. GyroObserver, GyroResonator and GyroLoops
-are still pythonfmu FMUs.
+Every FMU is a native C FMU (gyro_fmu.fmu.native), built with the package (`pip install`)
+and copied from it. `flavour="pythonfmu"` builds pythonfmu adapters over the same C core
+instead, for the six FMUs that have a slave source in fmu_src/ (PYTHONFMU_NAMES;
+GyroSensor is native only).
 
 The slave adapters are the package `gyro_fmu.fmu_src` (the repository's top-level
 fmu_src/, installed inside gyro_fmu by pyproject.toml), so an installed gyro_fmu builds
