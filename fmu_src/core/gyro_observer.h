@@ -139,6 +139,24 @@ enum {
 /* Why a tuning is unusable (names and remedies; non-zero), or 0. */
 int gyro_observer_tuning_problems(const GyroObserverTuning *tun, char *msg, size_t n);
 
+/* The tuning from an FMU's variables `v`, named as GyroObserverTuning's fields (the FMUs
+ * that run an observer declare them from gyro_fmu's ObserverTuning). */
+#define GYRO_OBS_TUNING_OF(v)                                                                 \
+    ((GyroObserverTuning){.noise_rel = (v)->noise_rel, .sigma_z1 = (v)->sigma_z1,             \
+                          .sigma_z2 = (v)->sigma_z2, .innov_floor = (v)->innov_floor,         \
+                          .innov_tau = (v)->innov_tau, .rate_model = (v)->rate_model,         \
+                          .omega_order = (v)->omega_order,                                    \
+                          .rate_bandwidth = (v)->rate_bandwidth, .rate_span = (v)->rate_span, \
+                          .rate_dwell = (v)->rate_dwell, .q_Omega = (v)->q_Omega,             \
+                          .q_param_rel = (v)->q_param_rel, .sigma0_k_rel = (v)->sigma0_k_rel, \
+                          .sigma0_d_rel = (v)->sigma0_d_rel,                                  \
+                          .sigma0_m_rel = (v)->sigma0_m_rel,                                  \
+                          .sigma0_Omega = (v)->sigma0_Omega,                                  \
+                          .sigma0_Omega_rate = (v)->sigma0_Omega_rate,                        \
+                          .sigma0_Omega_acc = (v)->sigma0_Omega_acc,                          \
+                          .sigma0_position = (v)->sigma0_position,                            \
+                          .sigma0_velocity = (v)->sigma0_velocity, .joseph = (v)->joseph})
+
 /* Build an observer from a parameter guess, Omega_z_0 (rad/s), pair (1 or 2) and tuning;
  * non-zero with msg naming the value and the remedy when they are unusable. */
 int gyro_observer_init(GyroObserver *o, const GyroParams *guess, double Omega_z_0, int pair,

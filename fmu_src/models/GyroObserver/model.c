@@ -28,20 +28,7 @@ static GyroParams guess_of(const Variables *v) {
     return (GyroParams){v->kxx_0, v->kyy_0, v->kxy_0, v->dxx_0, v->dyy_0, v->dxy_0, v->m_0};
 }
 
-static GyroObserverTuning tuning_of(const Variables *v) {
-    GyroObserverTuning t = {0};
-    t.noise_rel = v->noise_rel, t.sigma_z1 = v->sigma_z1, t.sigma_z2 = v->sigma_z2;
-    t.innov_floor = v->innov_floor, t.innov_tau = v->innov_tau;
-    t.rate_model = v->rate_model, t.omega_order = v->omega_order;
-    t.rate_bandwidth = v->rate_bandwidth, t.rate_span = v->rate_span;
-    t.rate_dwell = v->rate_dwell, t.q_Omega = v->q_Omega, t.q_param_rel = v->q_param_rel;
-    t.sigma0_k_rel = v->sigma0_k_rel, t.sigma0_d_rel = v->sigma0_d_rel;
-    t.sigma0_m_rel = v->sigma0_m_rel, t.sigma0_Omega = v->sigma0_Omega;
-    t.sigma0_Omega_rate = v->sigma0_Omega_rate, t.sigma0_Omega_acc = v->sigma0_Omega_acc;
-    t.sigma0_position = v->sigma0_position, t.sigma0_velocity = v->sigma0_velocity;
-    t.joseph = v->joseph;
-    return t;
-}
+static GyroObserverTuning tuning_of(const Variables *v) { return GYRO_OBS_TUNING_OF(v); }
 
 static void publish(ModelData *d) {
     double out[20], p[4];

@@ -20,39 +20,23 @@ typedef struct {
     int32_t warnings_logged, saturation_logged;
 } ModelData;
 
-static GyroParams truth_of(const Variables *v) {
-    return (GyroParams){v->kxx, v->kyy, v->kxy, v->dxx, v->dyy, v->dxy, v->m};
-}
+/* Everything the sensor is built from, as its variables say. */
+typedef struct {
+    GyroParams truth, design;
+    GyroPickoffNoise noise;
+    GyroTwoToneDrive drive;
+    GyroReadout readout;
+    GyroObserverTuning tuning;
+} Settings;
 
-static GyroParams design_of(const Variables *v) {
-    return (GyroParams){v->kxx_0, v->kyy_0, v->kxy_0, v->dxx_0, v->dyy_0, v->dxy_0, v->m_0};
-}
-
-static GyroPickoffNoise noise_of(const Variables *v) {
-    return (GyroPickoffNoise){v->noise_x, 0.0, v->noise_y, 0.0};
-}
-
-static GyroTwoToneDrive drive_of(const Variables *v) {
-    return (GyroTwoToneDrive){v->A1, v->f1, v->A2, v->f2};
-}
-
-static GyroReadout readout_of(const Variables *v) {
-    return (GyroReadout){v->internal_step, v->bandwidth, v->full_scale, v->resolution};
-}
-
-static GyroObserverTuning tuning_of(const Variables *v) {
-    GyroObserverTuning t = {0};
-    t.noise_rel = v->noise_rel, t.sigma_z1 = v->sigma_z1, t.sigma_z2 = v->sigma_z2;
-    t.innov_floor = v->innov_floor, t.innov_tau = v->innov_tau;
-    t.rate_model = v->rate_model, t.omega_order = v->omega_order;
-    t.rate_bandwidth = v->rate_bandwidth, t.rate_span = v->rate_span;
-    t.rate_dwell = v->rate_dwell, t.q_Omega = v->q_Omega, t.q_param_rel = v->q_param_rel;
-    t.sigma0_k_rel = v->sigma0_k_rel, t.sigma0_d_rel = v->sigma0_d_rel;
-    t.sigma0_m_rel = v->sigma0_m_rel, t.sigma0_Omega = v->sigma0_Omega;
-    t.sigma0_Omega_rate = v->sigma0_Omega_rate, t.sigma0_Omega_acc = v->sigma0_Omega_acc;
-    t.sigma0_position = v->sigma0_position, t.sigma0_velocity = v->sigma0_velocity;
-    t.joseph = v->joseph;
-    return t;
+static Settings settings_of(const Variables *v) {
+    return (Settings){
+        .truth = {v->kxx, v->kyy, v->kxy, v->dxx, v->dyy, v->dxy, v->m},
+        .design = {v->kxx_0, v->kyy_0, v->kxy_0, v->dxx_0, v->dyy_0, v->dxy_0, v->m_0},
+        .noise = {v->noise_x, 0.0, v->noise_y, 0.0},
+        .drive = {v->A1, v->f1, v->A2, v->f2},
+        .readout = {v->internal_step, v->bandwidth, v->full_scale, v->resolution},
+        .tuning = GYRO_OBS_TUNING_OF(v)};
 }
 
 static void publish(ModelData *d) {
@@ -66,17 +50,13 @@ static void publish(ModelData *d) {
 static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) {
     ModelData *d = data;
     const Variables *v = &d->v;
-    const GyroParams truth = truth_of(v), design = design_of(v);
-    const GyroPickoffNoise noise = noise_of(v);
-    const GyroTwoToneDrive drive = drive_of(v);
-    const GyroReadout readout = readout_of(v);
-    const GyroObserverTuning tuning = tuning_of(v);
-    if (gyro_sensor_init(&d->sensor, &truth, &noise, (uint64_t)v->seed, &design, v->Omega_z_0,
-                         &tuning, &drive, &readout, start_time, msg, n))
+    const Settings s = settings_of(v);
+    if (gyro_sensor_init(&d->sensor, &s.truth, &s.noise, (uint64_t)v->seed, &s.design,
+                         v->Omega_z_0, &s.tuning, &s.drive, &s.readout, start_time, msg, n))
         return GYRO_HOOK_ERROR;
     d->warnings_logged = d->saturation_logged = 0;
     publish(d);
-    return gyro_params_warning(&truth, msg, n) ? GYRO_HOOK_WARNING : GYRO_HOOK_OK;
+    return gyro_params_warning(&s.truth, msg, n) ? GYRO_HOOK_WARNING : GYRO_HOOK_OK;
 }
 
 static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) {
@@ -124,14 +104,9 @@ static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) 
 
 static GyroHookStatus restored(void *data, char *msg, size_t n) {
     ModelData *d = data;
-    const Variables *v = &d->v;
-    const GyroParams truth = truth_of(v), design = design_of(v);
-    const GyroPickoffNoise noise = noise_of(v);
-    const GyroTwoToneDrive drive = drive_of(v);
-    const GyroReadout readout = readout_of(v);
-    const GyroObserverTuning tuning = tuning_of(v);
-    if (gyro_sensor_restored_problem(&d->sensor, &truth, &noise, &design, v->Omega_z_0,
-                                     &tuning, &drive, &readout, msg, n))
+    const Settings s = settings_of(&d->v);
+    if (gyro_sensor_restored_problem(&d->sensor, &s.truth, &s.noise, &s.design, d->v.Omega_z_0,
+                                     &s.tuning, &s.drive, &s.readout, msg, n))
         return GYRO_HOOK_ERROR;
     return GYRO_HOOK_OK;
 }
