@@ -31,8 +31,6 @@ from importlib.util import find_spec, module_from_spec, spec_from_file_location
 from pathlib import Path
 from typing import Any
 
-from pythonfmu.builder import FmuBuilder
-
 from ..errors import GyroFmuError
 from .shipping import shipped_package_files
 
@@ -40,6 +38,17 @@ PACKAGE_DIR = Path(__file__).resolve().parents[1]
 #: Default folder of the built FMUs: relative, so it is models/ under the working
 #: directory at the time of use.
 MODELS_DIR = Path("models")
+
+
+def _pythonfmu_builder() -> Any:
+    """pythonfmu's FmuBuilder, imported when the pythonfmu flavour is built: copying the
+    prebuilt native FMUs (every `gyro-fmu run`) loads no pythonfmu."""
+    try:
+        from pythonfmu.builder import FmuBuilder
+    except ImportError as exc:
+        raise GyroFmuError(f"the pythonfmu flavour needs pythonfmu ({exc}): pip install "
+                           "pythonfmu, or use the native FMUs (the default)") from None
+    return FmuBuilder
 
 
 def source_dir() -> Path | None:
@@ -177,8 +186,8 @@ def build_fmu(name: str, dest: Path = MODELS_DIR, reference: bool = True,
             target = package / archived.removeprefix("resources/gyro_fmu/")
             target.parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(f, target)
-        path = Path(FmuBuilder.build_FMU(script, dest=tmp, project_files=[package],
-                                         **CAPABILITIES))
+        path = Path(_pythonfmu_builder().build_FMU(script, dest=tmp,
+                                                   project_files=[package], **CAPABILITIES))
         _install_loader(path)
         if reference:
             from .reference import write_reference
