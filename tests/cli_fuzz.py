@@ -92,9 +92,10 @@ def _argv(command: str, option: str | None, value: str, out: str) -> list[str]:
 
 
 def _invoke(argv: list[str], folder: Path, budget: float
-            ) -> tuple[int | None, str, str, str | None]:
+            ) -> tuple[int | None, str, str, str | None, tuple[str, ...]]:
     """`gyro-fmu argv` in this process from `folder`, cut by an alarm after `budget` s (exit
-    130): (exit code, stdout, stderr, the escaped exception or None)."""
+    130): (exit code, stdout, stderr, the escaped exception or None, the warnings it
+    raised)."""
     from gyro_fmu import cli
 
     err, out = io.StringIO(), io.StringIO()
@@ -119,8 +120,8 @@ def _invoke(argv: list[str], folder: Path, budget: float
             escaped = "".join(traceback.format_exception_only(type(exc), exc)).strip()
         finally:
             _disarm(previous, cwd)
-    _invoke.warned = tuple(f"{w.category.__name__}: {w.message}" for w in caught)
-    return code, out.getvalue(), err.getvalue(), escaped
+    warned = tuple(f"{w.category.__name__}: {w.message}" for w in caught)
+    return code, out.getvalue(), err.getvalue(), escaped, warned
 
 
 def _disarm(previous: object, cwd: str) -> None:
@@ -150,7 +151,7 @@ def run_trial(command: str, option: str | None, value: str, folder: Path, out: s
     saved_tasks = tasks.run_tasks
     tasks.run_tasks = _no_dask
     try:
-        code, _, text, escaped = _invoke(argv, folder, budget)
+        code, _, text, escaped, warned = _invoke(argv, folder, budget)
     finally:
         tasks.run_tasks = saved_tasks
     lines = [ln for ln in text.splitlines() if ln.strip()]
@@ -167,7 +168,7 @@ def run_trial(command: str, option: str | None, value: str, folder: Path, out: s
         outcome = "silent"
     else:
         outcome = "ran"
-    return Trial(command, option, value, outcome, code, said[:300], _invoke.warned)
+    return Trial(command, option, value, outcome, code, said[:300], warned)
 
 
 #: Whether a trial is running: the alarm interrupts only then. Under load an alarm came
@@ -258,7 +259,7 @@ def file_trial(label: str, what: str, path: Path, folder: Path, budget: float = 
     line naming the file) or a traceback; "unclear" when the refusal names neither the
     file nor the argument; "ran" only for a folder where a folder is asked for."""
     argv = [a.replace("{}", str(path)) for a in FILE_ARGUMENTS[label]]
-    code, out, err, escaped = _invoke(argv, folder, budget)
+    code, out, err, escaped, _ = _invoke(argv, folder, budget)
     text = err + out
     lines = [ln for ln in err.splitlines() if ln.strip()]
     said = escaped or (lines[-1] if lines else out.strip()[-300:])

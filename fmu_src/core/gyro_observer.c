@@ -49,7 +49,7 @@ static const double OMEGA_H_MAX = 2.5;
 /* Warning above this omega h (US 2011/0314910's held step stays exact, but the samples
  * resolve the resonance less and less: dampings and the tracking degrade long before the
  * refusal, and the sigmas do not say so; issue "observer honest when the rate moves"). */
-static const double OMEGA_H_WARN = 1.2;
+static const double OMEGA_H_WARN = GYRO_OBS_OMEGA_H_WARN;
 /* Monitor. Corrections per block of the innovation tests (1 ms at the default 5 us). */
 static const int BLOCK = 200;
 /* Warning above the chi-square quantile of this normal quantile (p = 1e-4 per block). */
@@ -1367,7 +1367,7 @@ static const char *restored_state_problem(const GyroObserver *o) {
     return NULL;
 }
 
-int gyro_observer_restored_problem(const GyroObserver *o, const GyroParams *guess,
+int gyro_observer_restored_problem(GyroObserver *o, const GyroParams *guess,
                                    double Omega_z_0, int pair, const GyroObserverTuning *tun,
                                    char *msg, size_t n) {
     GyroObserver fresh;
@@ -1392,5 +1392,6 @@ int gyro_observer_restored_problem(const GyroObserver *o, const GyroParams *gues
         snprintf(msg, n, "the saved observer holds %s: restore a state this FMU saved", bad);
         return 1;
     }
+    o->h_cached = -1.0; /* the rate models (Fr, Qr, Pi, qpar) are rebuilt at the next step */
     return 0;
 }

@@ -28,6 +28,9 @@
 #define GYRO_OBS_RMAX 3  /* most rate-block states */
 #define GYRO_OBS_KMAX 24 /* most Taylor terms of the held step (||A h|| <= 0.5 needs 18) */
 #define GYRO_OBS_MESSAGE 1024
+/* omega h above which the observer warns that the step is coarse (gyro_observer_step_warning):
+ * the estimates and their sigmas degrade well before the refusal. */
+#define GYRO_OBS_OMEGA_H_WARN 1.2
 
 /* ObserverTuning (gyro_fmu/estimation/observer_tuning.py: units and meaning of each). */
 typedef struct {
@@ -198,8 +201,9 @@ int gyro_observer_step_warning(const GyroObserver *o, double h, char *msg, size_
 int gyro_observer_warning(const GyroObserver *o, char *msg, size_t n);
 
 /* A state from outside (a restored FMU state): non-zero with msg when it is not one this
- * tuning, pair and guess could have made, or holds non-finite numbers. */
-int gyro_observer_restored_problem(const GyroObserver *o, const GyroParams *guess,
+ * tuning, pair and guess could have made, or a field its step reads is out of range; when
+ * usable, its cached rate models are dropped (rebuilt at the next step). */
+int gyro_observer_restored_problem(GyroObserver *o, const GyroParams *guess,
                                    double Omega_z_0, int pair, const GyroObserverTuning *tun,
                                    char *msg, size_t n);
 

@@ -50,11 +50,6 @@ static int readout_problems(const GyroReadout *r, double h, char *msg, size_t n)
     return msg[0] ? 1 : 0;
 }
 
-int gyro_readout_problems(const GyroReadout *r, char *msg, size_t n) {
-    const double h = r->internal_step > 0.0 ? r->internal_step : GYRO_SENSOR_STEP_MAX;
-    return readout_problems(r, h, msg, n);
-}
-
 /* The plant's noise per sample at step h: the same density as `noise` per
  * GYRO_SENSOR_NOISE_STEP. */
 static GyroPickoffNoise per_sample(const GyroPickoffNoise *noise, double h) {
@@ -111,10 +106,11 @@ int gyro_sensor_init(GyroSensor *s, const GyroParams *truth, const GyroPickoffNo
         return 1;
     }
     const double omega = s->observer.wx > s->observer.wy ? s->observer.wx : s->observer.wy;
-    if (omega * h > 1.2) { /* GyroObserver's warning level (OMEGA_H_WARN) */
+    if (omega * h > GYRO_OBS_OMEGA_H_WARN) { /* the observer would degrade (and warn) */
         snprintf(msg, n, "internal_step=%g s is too coarse for the gyro's design resonance "
-                 "(%.5g Hz, omega h = %.3g > 1.2): use internal_step <= %.3g s, or 0 (auto)",
-                 h, omega / (2.0 * GYRO_PI), omega * h, 1.2 / omega);
+                 "(%.5g Hz, omega h = %.3g > %g): use internal_step <= %.3g s, or 0 (auto)",
+                 h, omega / (2.0 * GYRO_PI), omega * h, GYRO_OBS_OMEGA_H_WARN,
+                 GYRO_OBS_OMEGA_H_WARN / omega);
         return 1;
     }
     s->drive = *drive;
@@ -193,7 +189,6 @@ int gyro_sensor_restored_problem(GyroSensor *s, const GyroParams *truth,
     if (gyro_plant_restored_problem(&s->plant, truth, &sigma, msg, n)) return 1;
     if (gyro_observer_restored_problem(&s->observer, design, Omega_z_0, 1, tuning, msg, n))
         return 1;
-    s->observer.h_cached = -1.0; /* rate models rebuilt at the next step */
     double b[3], a[3];
     butterworth(readout->bandwidth, h, b, a);
     const int same = memcmp(b, s->b, sizeof b) == 0 && memcmp(a, s->a, sizeof a) == 0;

@@ -56,9 +56,6 @@ typedef struct {
     int64_t k;           /* internal steps done */
 } GyroSensor;
 
-/* Why the readout settings are unusable ("" and 0 when usable). */
-int gyro_readout_problems(const GyroReadout *r, char *msg, size_t n);
-
 /* The internal step the sensor runs at: r->internal_step, or for 0 the auto rule above
  * from the design's larger resonance. */
 double gyro_sensor_step(const GyroReadout *r, const GyroParams *design);

@@ -64,7 +64,6 @@ def run_chain(settings: Mapping[str, float], Omega_z: Callable[[float], float],
     drive = TwoToneDrive(A1=s["A1"], f1=s["f1"], A2=s["A2"], f2=s["f2"])
     n_times = len(times)
     hats, sigmas, status = np.empty(n_times), np.empty(n_times), np.empty(n_times)
-    hat = np.empty(0)
     k = 0
     rates: list[float] = []
     marks = []

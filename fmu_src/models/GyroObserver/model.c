@@ -122,7 +122,6 @@ static GyroHookStatus restored(void *data, char *msg, size_t n) {
     if (gyro_observer_restored_problem(&d->observer, &guess, d->v.Omega_z_0, d->v.measured_pair,
                                        &tuning, msg, n))
         return GYRO_HOOK_ERROR;
-    d->observer.h_cached = -1.0; /* the rate models are rebuilt at the next step */
     return GYRO_HOOK_OK;
 }
 
