@@ -159,8 +159,8 @@ def rate_noise(noise: float = NOISE, duration: float = 80.0,
                figure: Path | None = Path("runs/selfcal_accuracy/allan.png")) -> None:
     """Allan deviation of the normal (mode 1) read-out for white pick-off noise."""
     from gyro_fmu.model.loops import LoopSettings
-    from gyro_fmu.selfcal.allan import allan_deviation
     from gyro_fmu.selfcal.inprocess import CarrierSimulation
+    from gyro_fmu.studies.allan import allan_deviation
 
     print(f"\n## Rate noise of the read-out: Allan deviation, pick-off noise {noise} V "
           f"per sample, {duration:g} s record")

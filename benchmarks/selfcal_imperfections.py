@@ -41,7 +41,6 @@ import numpy as np
 
 from gyro_fmu.model.loops import LoopSettings
 from gyro_fmu.model.resonator import K_B, ResonatorParameters
-from gyro_fmu.selfcal.allan import allan_deviation
 from gyro_fmu.selfcal.inprocess import CarrierSimulation
 from gyro_fmu.selfcal.ratetable import rate_table
 from gyro_fmu.selfcal.sequence import (
@@ -51,6 +50,7 @@ from gyro_fmu.selfcal.sequence import (
     measure_feedforward,
     record_mode,
 )
+from gyro_fmu.studies.allan import allan_deviation
 
 BIAS_TARGET = 7.27e-5
 SF_TARGET_PPM = 100.0

@@ -17,12 +17,12 @@ from gyro_fmu.cli import main
 from gyro_fmu.model.loops import LoopsError, LoopSettings
 from gyro_fmu.model.resonator import ResonatorParameters, system_matrices
 from gyro_fmu.selfcal.alarms import CalibrationRefusedError
-from gyro_fmu.selfcal.allan import allan_deviation
 from gyro_fmu.selfcal.estimator import transfer
 from gyro_fmu.selfcal.inprocess import CarrierSimulation
 from gyro_fmu.selfcal.phasors import PhasorError, phasors, phasors_and_variances
 from gyro_fmu.selfcal.ratetable import rate_table
 from gyro_fmu.selfcal.sequence import FeedForward, SelfCalConfig, self_calibrate
+from gyro_fmu.studies.allan import allan_deviation
 
 #: Short records, few sidebands: 0.4 Hz spacing keeps 2 Hann bins per step in 5 s.
 SMALL = SelfCalConfig(settle=3.0, record=5.0, sideband_spacing=0.4, sideband_count=3,

@@ -17,7 +17,7 @@ from gyro_fmu import spec
 from gyro_fmu.cli import main
 from gyro_fmu.estimation.observer import GyroStateObserver, ObserverDivergedError
 from gyro_fmu.model.parameters import ParameterError
-from gyro_fmu.selfcal.allan import allan_deviation
+from gyro_fmu.studies.allan import allan_deviation
 
 #: A short but complete spec run (about 0.9 s simulated); a band wide enough that the
 #: noise of a 0.04 s start-up window cannot leave it.

@@ -32,13 +32,7 @@ ARW_DEG_PER_SQRT_H = math.degrees(1.0) * 60.0
 DEG_PER_H = math.degrees(1.0) * 3600.0
 
 
-BIAS_INSTABILITY_FACTOR = math.sqrt(2.0 * math.log(2.0) / math.pi)  # 0.664
-
-
 ARW_SLOPE_TOLERANCE = 0.15
-
-
-TAU_MAX_FRACTION = 0.2
 
 
 STARTUP_SIGMAS = 6.0

@@ -29,6 +29,7 @@ from dataclasses import asdict
 import numpy as np
 
 from ..estimation.observer import ObserverTuning
+from ..studies.response import bandwidth_3db
 from ..system.scenario import default_initial_guess
 from .config import (
     PROBABILITY_EVERY,
@@ -40,7 +41,7 @@ from .config import (
     simulate,
 )
 from .noise import allan_study, moving_mean
-from .response import bandwidth_3db, scale_factor_study, sine_plan, sine_response, stepped_sine_rate
+from .response import scale_factor_study, sine_plan, sine_response, stepped_sine_rate
 
 
 def measure_spec(cfg: SpecConfig, progress: Callable[[str], None] = lambda s: None) -> dict:

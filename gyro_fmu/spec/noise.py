@@ -8,43 +8,24 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..selfcal.allan import allan_deviation
+from ..studies.allan import (
+    adev_uncertainty,
+    allan_deviation,
+    allan_taus,
+    bias_instability,
+    local_slopes,
+)
 from .config import (
     _TUNING_NAMES,
     ARW_DEG_PER_SQRT_H,
     ARW_SLOPE_TOLERANCE,
-    BIAS_INSTABILITY_FACTOR,
     DEG_PER_H,
     STARTUP_SIGMAS,
     STATIONARITY_RATIO,
-    TAU_MAX_FRACTION,
     Record,
     SpecConfig,
     SpecError,
 )
-
-
-def allan_taus(n: int, h: float, per_decade: int = 10,
-               max_fraction: float = TAU_MAX_FRACTION) -> np.ndarray:
-    """Averaging times (s): whole multiples m h of the step, log-spaced, from h up to
-    max_fraction of the record of n samples (unique m)."""
-    m_max = max(1, int(max_fraction * n))
-    count = max(2, int(per_decade * math.log10(max(m_max, 10))))
-    m = np.unique(np.rint(np.geomspace(1, m_max, count))).astype(int)
-    return m * h
-
-
-def adev_uncertainty(n: int, h: float, taus: np.ndarray) -> np.ndarray:
-    """Relative 1-sigma error of an Allan deviation estimate at each tau from n samples:
-    1 / sqrt(2 (n / m - 1)) with m = tau / h samples per cluster (IEEE 952 Annex C);
-    conservative for the overlapping estimator."""
-    clusters = n / np.rint(np.asarray(taus) / h)
-    return 1.0 / np.sqrt(2.0 * np.maximum(clusters - 1.0, 1.0))
-
-
-def local_slopes(taus: np.ndarray, adev: np.ndarray) -> np.ndarray:
-    """d log(adev) / d log(tau) at each tau (central differences, one-sided at the ends)."""
-    return np.gradient(np.log(adev), np.log(taus))
 
 
 def angle_random_walk(taus: np.ndarray, adev: np.ndarray, n: int, h: float) -> dict:
@@ -64,27 +45,6 @@ def angle_random_walk(taus: np.ndarray, adev: np.ndarray, n: int, h: float) -> d
     log_n = np.sum(w * np.log(adev[sel] * np.sqrt(taus[sel]))) / np.sum(w)
     return {"N": float(np.exp(log_n)), "tau_range": [float(taus[sel][0]), float(taus[sel][-1])],
             "points": int(sel.sum())}
-
-
-def bias_instability(taus: np.ndarray, adev: np.ndarray) -> dict:
-    """Bias instability B (rad/s) = the Allan deviation's flat minimum / 0.664
-    (sigma = B sqrt(2 ln 2 / pi) on the flat part; IEEE 952 Annex C).
-
-    The minimum is sought beyond the deviation's first maximum: below it the output is
-    smoothed by the observer's own bandwidth (the deviation rises with tau there, a
-    filter's signature, not a bias). "resolved" is True when the minimum lies inside
-    the tau range (not in its last two points) with a local slope within +-0.25 there;
-    otherwise the record is too short (the deviation still falls) and B is an upper
-    bound: the last deviation / 0.664.
-    """
-    falls = np.flatnonzero(np.diff(adev) < 0.0)
-    i0 = int(falls[0]) if falls.size else 0
-    i = i0 + int(np.argmin(adev[i0:]))
-    slopes = local_slopes(taus, adev)
-    resolved = i < len(adev) - 2 and abs(slopes[i]) <= 0.25
-    return {"B": float(adev[i] / BIAS_INSTABILITY_FACTOR), "tau_min": float(taus[i]),
-            "adev_min": float(adev[i]), "resolved": bool(resolved),
-            "slope_at_min": float(slopes[i])}
 
 
 def moving_mean(x: np.ndarray, m: int) -> np.ndarray:

@@ -9,6 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..studies.response import bandwidth_3db as bandwidth_3db  # gyro_fmu.spec.bandwidth_3db
+from ..studies.response import sine_gain
 from .config import Record, SpecConfig, simulate
 
 
@@ -60,38 +62,10 @@ def sine_response(rec: Record, plan: Sequence[SineSegment], amplitude: float,
         # the estimate at rec.t responds to the held input; compare with the continuous
         # sine at the middle of the hold (a ZOH delays by h / 2)
         tau = rec.t[sel] - s.t0 - 0.5 * h
-        w = 2.0 * math.pi * s.f
-        X = np.column_stack([np.sin(w * tau), np.cos(w * tau), np.ones(tau.size)])
-        coef, *_ = np.linalg.lstsq(X, rec.omega_hat[sel], rcond=None)
-        g = complex(coef[0], coef[1]) / amplitude
-        out.append({"f_hz": s.f, "gain": abs(g), "gain_db": 20.0 * math.log10(max(abs(g), 1e-12)),
-                    "phase_deg": math.degrees(math.atan2(g.imag, g.real))})
+        out.append(sine_gain(tau, rec.omega_hat[sel], s.f, amplitude))
     return out
 
 
-def bandwidth_3db(response: Sequence[dict]) -> dict:
-    """-3 dB bandwidth (Hz): the lowest frequency at which the gain, relative to the
-    lowest frequency's gain, falls through -3 dB (linear interpolation of dB in log f).
-    "below"/"above": the gain was already under -3 dB at the lowest / never fell under
-    it up to the highest frequency tested; the value is then that frequency."""
-    f = np.array([r["f_hz"] for r in response])
-    g = np.array([r["gain_db"] for r in response])
-    ref = g[0]
-    rel = g - ref
-    peak = float(rel.max())
-    if ref < -3.0:
-        return {"f_3db_hz": float(f[0]), "bound": "below", "peaking_db": peak,
-                "reference_gain_db": float(ref)}
-    below = np.flatnonzero(rel < -3.0)
-    if below.size == 0:
-        return {"f_3db_hz": float(f[-1]), "bound": "above", "peaking_db": peak,
-                "reference_gain_db": float(ref)}
-    j = int(below[0])
-    x0, x1 = math.log(f[j - 1]), math.log(f[j])
-    y0, y1 = rel[j - 1], rel[j]
-    x = x0 + (-3.0 - y0) * (x1 - x0) / (y1 - y0)
-    return {"f_3db_hz": float(math.exp(x)), "bound": None, "peaking_db": peak,
-            "reference_gain_db": float(ref)}
 
 
 def scale_factor_fit(rates: Sequence[float], outputs: Sequence[float],
