@@ -6,7 +6,7 @@ import sys
 
 if __name__ == "__main__":
     if sys.argv[1:] == ["--native"]:
-        from gyro_fmu.fmu.native import build_package
+        from gyro_fmu.fmu.package import build_package
 
         build_package(force=True)
         raise SystemExit(0)

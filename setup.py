@@ -14,7 +14,7 @@ HERE = Path(__file__).resolve().parent
 
 class BuildNative(build_py):
     def run(self) -> None:
-        subprocess.run([sys.executable, "-c", "from gyro_fmu.fmu.native import build_package; "
+        subprocess.run([sys.executable, "-c", "from gyro_fmu.fmu.package import build_package; "
                         "build_package()"], cwd=HERE, check=True)
         super().run()
 

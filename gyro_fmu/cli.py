@@ -51,7 +51,7 @@ def _cmd_doctor(args: argparse.Namespace) -> int:
 #: The subcommands as a user thinks of them; `gyro-fmu --help` lists them so.
 GROUPS = {
     "simulate": ("run", "report", "sweep"),
-    "analyse": ("observability", "identify", "design-drive", "spec"),
+    "analyse": ("observability", "identify", "design-drive", "spec", "datasheet"),
     "calibrate": ("selfcal", "selfcal-warmup", "selfcal-lot", "ratetable"),
     "export": ("build", "fmus", "ssp", "container"),
     "check": ("validate", "doctor"),
@@ -121,11 +121,13 @@ def parser() -> argparse.ArgumentParser:
 
     from .selfcal.cli import register as register_selfcal
     from .spec.cli import register as register_spec
+    from .spec.datasheet_cli import register as register_datasheet
     from .system.cli import register as register_system
 
     register_system(sub)
     register_selfcal(sub)
     register_spec(sub)
+    register_datasheet(sub)
     p.epilog = _grouped(sub)
     return p
 

@@ -122,7 +122,7 @@ def _load_slave_file(path: str, name: str, mtime_ns: int) -> Any | None:
 def prebuilt_fmu(name: str, fmi_version: int = 2) -> Path:
     """The package's prebuilt native FMU `name` (FMI 2.0 or 3.0); raises with the remedy
     when it is missing or older than the C sources."""
-    from .native import PREBUILT_FMUS, prebuilt_problem
+    from .package import PREBUILT_FMUS, prebuilt_problem
 
     problem = prebuilt_problem()
     path = PREBUILT_FMUS / f"fmi{fmi_version}" / f"{name}.fmu"

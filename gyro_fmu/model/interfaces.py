@@ -96,6 +96,9 @@ class FmuInterface:
     #: (stopTime, stepSize) of the DefaultExperiment (and of the stored reference run);
     #: None for gyro_fmu.fmu.native.DEFAULT_EXPERIMENT.
     default_experiment: tuple[float, float] | None = None
+    #: The build measures a datasheet from the built FMU's own output and ships it as
+    #: documentation/datasheet.json (gyro_fmu.sensor.datasheet: GyroSensor).
+    datasheet: bool = False
 
     def value_reference(self, name: str) -> int:
         return 1 + [v.name for v in self.variables].index(name)

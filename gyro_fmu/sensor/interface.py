@@ -129,4 +129,5 @@ SENSOR = FmuInterface(
     core_sources=("gyro_rng.c", "gyro_plant.c", "gyro_observer.c", "gyro_signals.c",
                   "gyro_sensor.c"),
     default_experiment=(0.05, 1e-3),
+    datasheet=True,
 )
