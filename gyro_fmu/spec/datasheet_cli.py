@@ -51,6 +51,7 @@ def draw(sheet: dict, path: Path) -> Path:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import numpy as np
 
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.2))
     for seed, c in sheet["curves"].items():
@@ -59,6 +60,12 @@ def draw(sheet: dict, path: Path) -> Path:
         r = c["response"]
         ax[2].semilogx([p["f_hz"] for p in r], [p["gain_db"] for p in r], "o-", ms=3, lw=1)
     f = sheet["figures"]
+    tau = np.asarray(next(iter(sheet["curves"].values()))["taus"])
+    for line, label in ((f["arw"]["value"] / np.sqrt(tau), "N / sqrt(tau)"),
+                        (0.664 * f["bias_instability"]["value"] + 0 * tau, "0.664 B"),
+                        (f["rate_random_walk"]["value"] * np.sqrt(tau / 3), "K sqrt(tau / 3)")):
+        ax[0].loglog(tau, line, "k--", lw=0.8, alpha=0.6)
+        ax[0].annotate(label, (tau[-1], line[-1]), fontsize=7, ha="right", va="bottom")
     ax[0].set(xlabel="tau (s)", ylabel="Allan deviation (rad/s)",
               title=f"rate 0 after {sheet['protocol']['warm_up_s']:g} s: "
                     f"B <= {f['bias_instability']['value']:.2g} rad/s")
