@@ -18,6 +18,7 @@ from gyro_fmu.fmu.build import prebuilt_fmu
 from gyro_fmu.sensor.datasheet import (
     CHECK_SEEDS,
     DATASHEET,
+    DATASHEET_TEXT,
     SEEDS,
     TERMS,
     _step_response,
@@ -65,6 +66,8 @@ def test_fmi2_and_fmi3_carry_the_same_datasheet():
     assert sheets[0] == sheets[1]
     figures = json.loads(sheets[0])["figures"]
     assert figures["full_scale"]["value"] == 35.0
+    text = zipfile.ZipFile(prebuilt_fmu("GyroSensor", 3)).read(DATASHEET_TEXT).decode()
+    assert f"| bandwidth | {figures['bandwidth']['value']:.4g} |" in text
 
 
 def test_step_response_of_a_known_delay_and_time_constant():

@@ -57,6 +57,7 @@ CHECK_SEEDS = (101, 102)
 #: Coverage of the check: two-sided probability of the prediction interval.
 CHECK_PROBABILITY = 0.999
 DATASHEET = "documentation/datasheet.json"
+DATASHEET_TEXT = "documentation/datasheet.md"
 FORMAT = "gyro_fmu datasheet 1"
 
 
@@ -323,6 +324,26 @@ def public(datasheet: dict) -> dict:
     return {k: v for k, v in datasheet.items() if k != "curves"}
 
 
+def datasheet_markdown(sheet: dict) -> str:
+    """The datasheet in human form: a table of the figures, then the protocol."""
+    p = sheet["protocol"]
+    lines = [f"# {sheet['model']}: datasheet", "",
+             "Measured by the build from this FMU's own output (gyro_fmu "
+             "docs/datasheet.md); the same figures in datasheet.json. Settings: "
+             f"{sheet['settings'] or 'the FMU defaults'}.", "",
+             "| figure | value | +- (one seed) | unit | how |", "| --- | --- | --- | --- | --- |"]
+    for name, f in sheet["figures"].items():
+        u = f.get("uncertainty")
+        value = ("<= " if f.get("bound") == "upper" else "") + format(f["value"], ".4g")
+        lines.append(f"| {name} | {value} | {'' if u is None else format(u, '.2g')} | "
+                     f"{f['unit']} | {f['how']} |")
+    lines += ["", f"Protocol: warm-up {p['warm_up_s']:g} s at rate 0, record {p['record_s']:g} "
+              f"s at a {p['record_step_s']:g} s host step; step and sines at {p['fast_step_s']:g} "
+              f"s; seeds {p['seeds']}; uncertainty: {p['uncertainty']}. Check it: "
+              "`gyro-fmu datasheet --check --fmu THIS.fmu`.", ""]
+    return "\n".join(lines)
+
+
 def read_fmu_datasheet(fmu: Path) -> dict:
     """documentation/datasheet.json of an FMU."""
     import zipfile
@@ -368,10 +389,12 @@ def add_datasheet(fmus: Sequence[Path], cache: Path) -> dict:
     if sheet is None:
         sheet = public(measure_datasheet(fmus[0]))
         cache.write_text(json.dumps({"key": key, "datasheet": sheet}))
-    text = json.dumps(sheet, indent=1) + "\n"
+    members = {DATASHEET: json.dumps(sheet, indent=1) + "\n",
+               DATASHEET_TEXT: datasheet_markdown(sheet)}
     for fmu in fmus:
         with zipfile.ZipFile(fmu, "a") as z:
-            info = zipfile.ZipInfo(DATASHEET, date_time=(2026, 1, 1, 0, 0, 0))
-            info.external_attr = 0o644 << 16
-            z.writestr(info, text, zipfile.ZIP_DEFLATED)
+            for name, text in members.items():
+                info = zipfile.ZipInfo(name, date_time=(2026, 1, 1, 0, 0, 0))
+                info.external_attr = 0o644 << 16
+                z.writestr(info, text, zipfile.ZIP_DEFLATED)
     return sheet
