@@ -422,8 +422,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="run it in libcosim and in the fmpy master, print the differences")
     s.set_defaults(func=_cmd_ssp)
 
-    c = sub.add_parser("container", help="build the whole system as one FMU "
-                       "(models/GyroSystem.fmu, fmu-manipulation-toolbox)")
+    c = sub.add_parser("container", help="build the patent's Fig. 2 system (its own rate "
+                       "profile, a 5 us step) as one FMU (models/GyroSystem.fmu, "
+                       "fmu-manipulation-toolbox); a rate in from your model: GyroSensor.fmu")
     c.add_argument("--models", default=str(MODELS_DIR),
                    help="folder of our FMUs")
     c.add_argument("--dest", help="container file (default MODELS/GyroSystem.fmu)")
