@@ -3,12 +3,18 @@
 - `<!-- generated: cli -->` becomes every `gyro-fmu` command's help, by group, from the
   parser itself (gyro_fmu.cli.parser);
 - `<!-- generated: variables MODEL -->` becomes MODEL's variable table from the same
-  declarations that generate its modelDescription.xml (gyro_fmu.fmu.native).
+  declarations that generate its modelDescription.xml (gyro_fmu.fmu.native);
+- figures: `images/platform.png` is drawn by running `examples/stabilized_platform.py`
+  on the package's FMUs (3 s), so the page shows what the example prints today.
 """
 
 from __future__ import annotations
 
 import re
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
 
 _MARK = re.compile(r"<!-- generated: (cli|variables (\w+)) -->")
 
@@ -50,3 +56,24 @@ def _g(value: object) -> str:
 def on_page_markdown(markdown: str, **kwargs: object) -> str:
     return _MARK.sub(lambda m: _cli() if m.group(1) == "cli" else _variables(m.group(2)),
                      markdown)
+
+
+def _platform_figure() -> bytes:
+    from gyro_fmu.fmu.build import prebuilt_fmu
+
+    root = Path(__file__).resolve().parents[1]
+    with tempfile.TemporaryDirectory(prefix="gyro_fmu-docs-") as tmp:
+        fmus = Path(tmp)
+        for name in ("StabilizedPlatform", "GyroSensor"):
+            (fmus / f"{name}.fmu").write_bytes(prebuilt_fmu(name).read_bytes())
+        subprocess.run([sys.executable, str(root / "examples" / "stabilized_platform.py"),
+                        "--fmus", str(fmus), "--stop-time", "2", "--figure",
+                        str(fmus / "platform.png")], check=True, capture_output=True)
+        return (fmus / "platform.png").read_bytes()
+
+
+def on_files(files, config, **kwargs):
+    from mkdocs.structure.files import File
+
+    files.append(File.generated(config, "images/platform.png", content=_platform_figure()))
+    return files

@@ -1,22 +1,23 @@
 """A single-axis stabilized platform that needs a gyroscope: GyroSensor.fmu in the rate
-loop of a system model stepped at 1 ms, beside the same loop with an ideal sensor. Only
-fmpy and the FMU at run time.
+loop of StabilizedPlatform.fmu, stepped at 1 ms in a plain fmpy loop, beside the same
+loop with an ideal sensor. Only fmpy and the FMUs at run time.
 
     gyro-fmu fmus --dest fmus --fmi 2        # the FMUs, once
     python examples/stabilized_platform.py --fmus fmus --stop-time 2 --figure platform.png
 
-The platform (inertia J) sits on a vehicle whose rate w_b(t) shakes it through bearing
-friction c; a motor torque holds it still in inertial space:
+The platform (inertia J) sits on a vehicle swaying at w_b(t) = 0.5 sin(2 pi 2 t) rad/s,
+which shakes it through bearing friction c; a motor torque from a PI loop on the
+measured rate holds it still in inertial space (StabilizedPlatform's readme):
 
     J dw/dt = c (w_b - w) + tau,      theta = integral of w  (the pointing error)
-    tau = -Kp w_meas - Ki integral of w_meas                 (a PI rate loop)
+    tau = -Kp w_meas - Ki integral of w_meas
 
-w_meas is the ideal sensor's w, or GyroSensor's Omega_meas with the platform's w as its
-input Omega_z. The plant is integrated exactly over each 1 ms step with tau held (a
-first-order system); the sensor holds w over the step, as any co-simulation master does.
-Prints the RMS pointing error of both loops; exit 1 if GyroSensor's loop does not
-stabilize the platform (RMS pointing error over 5 times the ideal loop's, plus the
-drift its own bias explains).
+w_meas is the platform's own w (an ideal gyro) or GyroSensor's Omega_meas with the
+platform's w as its input Omega_z. Each FMU steps from t to t + h on the other's outputs
+at t, as a co-simulation master does (the same loop as an SSP package of these FMUs in
+libcosim or Ecos: `gyro-fmu ssp --system platform`). Prints the RMS pointing error of
+both loops; exit 1 if GyroSensor's loop does not stabilize the platform (RMS pointing
+error over 5 times the ideal loop's, plus the drift its own bias explains).
 """
 
 from __future__ import annotations
@@ -31,36 +32,32 @@ import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
-J = 2e-3  # kg m^2, the platform's inertia
-C = 0.05  # N m s / rad, bearing friction to the vehicle
-KP, KI = 0.15, 20.0  # the rate loop: N m s / rad, N m / rad
+SWAY_AMPLITUDE, SWAY_FREQUENCY = 0.5, 2.0  # rad/s, Hz: the vehicle's rate
 
 
 def vehicle_rate(t: float) -> float:
-    """The vehicle's rate (rad/s): a slow sway and an engine vibration."""
-    return 0.5 * math.sin(2 * math.pi * 1.5 * t) + 0.2 * math.sin(2 * math.pi * 12.0 * t)
+    return SWAY_AMPLITUDE * math.sin(2 * math.pi * SWAY_FREQUENCY * t)
 
 
-class Sensor:
-    """GyroSensor.fmu in a plain fmpy loop."""
+class Fmu:
+    """One FMU in a plain fmpy loop: set inputs, step, get outputs by name."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, name: str) -> None:
         md = read_model_description(str(path))
         self.folder = extract(str(path))
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
         self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=self.folder,
-                             modelIdentifier=md.coSimulation.modelIdentifier,
-                             instanceName="gyro")
+                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
         self.fmu.instantiate()
         self.fmu.setupExperiment(startTime=0.0)
         self.fmu.enterInitializationMode()
         self.fmu.exitInitializationMode()
 
-    def read(self) -> tuple[float, float]:
-        return tuple(self.fmu.getReal([self.vr["Omega_meas"], self.vr["sigma_Omega_meas"]]))
+    def get(self, *names: str) -> list[float]:
+        return self.fmu.getReal([self.vr[n] for n in names])
 
-    def step(self, t: float, h: float, rate: float) -> None:
-        self.fmu.setReal([self.vr["Omega_z"]], [rate])
+    def step(self, t: float, h: float, **inputs: float) -> None:
+        self.fmu.setReal([self.vr[n] for n in inputs], list(inputs.values()))
         self.fmu.doStep(t, h)
 
     def close(self) -> None:
@@ -70,28 +67,34 @@ class Sensor:
 
 
 # --8<-- [start:simulate]
-def simulate(stop: float, h: float, sensor: Sensor | None) -> dict[str, np.ndarray]:
-    """The platform with the ideal sensor (None) or GyroSensor, at the host step h."""
+def simulate(stop: float, h: float, platform: Fmu, gyro: Fmu | None) -> dict[str, np.ndarray]:
+    """The loop at the host step h: the ideal sensor (gyro None) or GyroSensor."""
     n = round(stop / h)
-    w = theta = integral = 0.0
     out = {k: np.empty(n + 1) for k in ("t", "w", "theta", "w_meas")}
-    a = math.exp(-C * h / J)  # exact over h for tau and w_b held
     for k in range(n + 1):
         t = k * h
-        w_meas = w if sensor is None else sensor.read()[0]
+        w, theta = platform.get("w", "theta")  # the outputs at t
+        w_meas = w if gyro is None else gyro.get("Omega_meas")[0]
         out["t"][k], out["w"][k], out["theta"][k], out["w_meas"][k] = t, w, theta, w_meas
         if k == n:
             break
-        integral += w_meas * h
-        tau = -KP * w_meas - KI * integral
-        w_inf = vehicle_rate(t) + tau / C  # where w would settle with these held
-        if sensor is not None:
-            sensor.step(t, h, w)
-        w_next = w_inf + (w - w_inf) * a
-        theta += w_inf * h + (w - w_inf) * (1 - a) * J / C  # integral of w over the step
-        w = w_next
+        platform.step(t, h, w_b=vehicle_rate(t), w_meas=w_meas)  # both on the values at t
+        if gyro is not None:
+            gyro.step(t, h, Omega_z=w)
     return out
 # --8<-- [end:simulate]
+
+
+def run(fmus: Path, stop: float, h: float, with_gyro: bool) -> tuple[dict, float | None]:
+    platform = Fmu(fmus / "StabilizedPlatform.fmu", "platform")
+    gyro = Fmu(fmus / "GyroSensor.fmu", "gyro") if with_gyro else None
+    try:
+        out = simulate(stop, h, platform, gyro)
+        return out, None if gyro is None else gyro.get("sigma_Omega_meas")[0]
+    finally:
+        for f in (platform, gyro):
+            if f is not None:
+                f.close()
 
 
 def main() -> int:
@@ -101,13 +104,8 @@ def main() -> int:
     ap.add_argument("--step", type=float, default=1e-3, help="the host's step, s")
     ap.add_argument("--figure", type=Path, help="write the pointing errors to this PNG")
     args = ap.parse_args()
-    ideal = simulate(args.stop_time, args.step, None)
-    sensor = Sensor(args.fmus / "GyroSensor.fmu")
-    try:
-        real = simulate(args.stop_time, args.step, sensor)
-        sigma = sensor.read()[1]
-    finally:
-        sensor.close()
+    ideal, _ = run(args.fmus, args.stop_time, args.step, False)
+    real, sigma = run(args.fmus, args.stop_time, args.step, True)
     late = ideal["t"] >= 0.5 * args.stop_time
     rms = {name: float(np.sqrt(np.mean(r["theta"][late] ** 2)))
            for name, r in (("ideal", ideal), ("GyroSensor", real))}

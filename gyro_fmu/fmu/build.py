@@ -76,11 +76,12 @@ CAPABILITIES = {
 #: file stem). What each one needs beyond its variables (reference inputs, doctor check)
 #: its slave class declares; `load_slave` reads it.
 FMU_NAMES = ("GyroPlant", "TwoToneDrive", "RateProfile", "GyroObserver", "GyroResonator",
-             "GyroLoops", "GyroSensor")
+             "GyroLoops", "GyroSensor", "StabilizedPlatform")
 #: The native C FMUs (gyro_fmu.fmu.native), prebuilt in the package: every one.
 NATIVE_NAMES = FMU_NAMES
 #: The FMUs with a pythonfmu flavour too (built on request: flavour="pythonfmu"; a slave
-#: source fmu_src/NAME.py each). GyroSensor is native only: its loop is the C core's.
+#: source fmu_src/NAME.py each). GyroSensor is native only: its loop is the C core's;
+#: StabilizedPlatform (GyroSensor's system example) too.
 PYTHONFMU_NAMES = FMU_NAMES[:6]
 FLAVOURS = ("native", "pythonfmu")
 #: Prefix of the private module names `load_slave` gives the slave sources.

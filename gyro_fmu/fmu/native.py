@@ -30,6 +30,7 @@ from ..estimation.interface import OBSERVER
 from ..model.interfaces import PHYSICS_INTERFACES, FmuInterface
 from ..model.selfcal_interfaces import SELFCAL_INTERFACES
 from ..sensor.interface import SENSOR
+from ..sensor.platform import PLATFORM
 from .macho import universal_macho
 from .units import UNITS
 
@@ -87,12 +88,13 @@ DEFAULT_EXPERIMENT = {"startTime": "0", "stopTime": "0.01", "stepSize": "5e-06"}
 NATIVE_INTERFACES: dict[str, FmuInterface] = {**PHYSICS_INTERFACES,
                                               OBSERVER.identifier: OBSERVER,
                                               **SELFCAL_INTERFACES,
-                                              SENSOR.identifier: SENSOR}
+                                              SENSOR.identifier: SENSOR,
+                                              PLATFORM.identifier: PLATFORM}
 #: The modules the declarations come from (the prebuilt FMUs' staleness stamp hashes them).
 DECLARATION_FILES = ("model/interfaces.py", "model/selfcal_interfaces.py", "model/resonator.py",
                      "model/loops.py", "estimation/interface.py",
                      "estimation/observer_tuning.py", "estimation/observer_rate.py",
-                     "sensor/interface.py")
+                     "sensor/interface.py", "sensor/platform.py")
 
 
 class NativeBuildError(RuntimeError):

@@ -151,9 +151,11 @@ def _cmd_ssp(args: argparse.Namespace) -> int:
     from .run import ensure_fmus, run_fmus
     from .ssp import relative_differences, run_ssp_libcosim, write_ssp
 
-    sc = scenario_from_args(args)
     models = Path(args.models)
     ensure_fmus(models)
+    if args.system == "platform":
+        return _platform_ssp(args, models)
+    sc = scenario_from_args(args)
     path = write_ssp(sc, models, Path(args.out) if args.out else None)
     print(f"wrote {path}")
     if args.run or args.compare:
@@ -165,6 +167,32 @@ def _cmd_ssp(args: argparse.Namespace) -> int:
             worst = sorted(rel.items(), key=lambda kv: -kv[1])[:3]
             print("max |libcosim - fmpy| / max |fmpy|, worst signals: "
                   + ", ".join(f"{name} {value:.3g}" for name, value in worst))
+    return 0
+
+
+def _platform_ssp(args: argparse.Namespace, models: Path) -> int:
+    """`gyro-fmu ssp --system platform`: the stabilized platform with GyroSensor."""
+    import numpy as np
+
+    from ..cosim.master import run_cosimulation
+    from ..sensor.platform import STEP, STOP_TIME, platform_system
+    from .ssp import relative_differences, run_ssp_libcosim, write_system_ssp
+
+    components, connections = platform_system(models)
+    path = write_system_ssp(components, connections, STOP_TIME, STEP,
+                            Path(args.out) if args.out else models / "StabilizedPlatform.ssp")
+    print(f"wrote {path}")
+    if args.run or args.compare:
+        record = ("platform.theta", "platform.w", "gyro.Omega_meas")
+        result = run_ssp_libcosim(path, record=record)
+        late = np.asarray(result["time"]) >= STOP_TIME / 2
+        rms = float(np.sqrt(np.mean(np.asarray(result["platform.theta"])[late] ** 2)))
+        print(f"libcosim: RMS pointing error over the second half {rms * 1e3:.4g} mrad")
+        if args.compare:
+            rel = relative_differences(result, run_cosimulation(components, connections,
+                                                                STOP_TIME, STEP))
+            print("max |libcosim - fmpy| / max |fmpy|: "
+                  + ", ".join(f"{name} {value:.3g}" for name, value in rel.items()))
     return 0
 
 
@@ -416,7 +444,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                        help="write the scenario's system as an SSP package; --run: in libcosim")
     s.add_argument("--models", default=str(MODELS_DIR),
                    help="folder of our FMUs")
-    s.add_argument("--out", help="package file (default MODELS/GyroSystem.ssp)")
+    s.add_argument("--out", help="package file (default MODELS/GyroSystem.ssp, or "
+                   "MODELS/StabilizedPlatform.ssp)")
+    s.add_argument("--system", choices=("gyro", "platform"), default="gyro",
+                   help="gyro: the scenario's four FMUs (patent Fig. 2); platform: GyroSensor "
+                        "in the rate loop of StabilizedPlatform on a swaying vehicle (2 s at "
+                        "1 ms; the scenario options do not apply)")
     s.add_argument("--run", action="store_true", help="run the package in libcosim")
     s.add_argument("--compare", action="store_true",
                    help="run it in libcosim and in the fmpy master, print the differences")

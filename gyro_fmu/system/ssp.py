@@ -217,7 +217,17 @@ def write_ssp(sc: Scenario | None = None, models_dir: Path = MODELS_DIR,
     if dest.is_dir():  # a folder given: the package goes into it
         dest = dest / f"{SYSTEM_NAME}.ssp"
     components, connections = fmu_system(sc, models_dir)
-    root, resources = system_structure(components, connections, sc.stop_time, sc.step,
+    return write_system_ssp(components, connections, sc.stop_time, sc.step, dest,
+                            parameter_set)
+
+
+def write_system_ssp(components: Iterable[Component], connections: Iterable[Connection],
+                     stop_time: float, step: float, dest: Path,
+                     parameter_set: str = PARAMETER_SET) -> Path:
+    """Any system of our FMUs as an SSP package at dest (see `system_structure`); returns
+    dest."""
+    dest = Path(dest)
+    root, resources = system_structure(components, connections, stop_time, step,
                                        parameter_set)
     dest.parent.mkdir(parents=True, exist_ok=True)
     xml = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
