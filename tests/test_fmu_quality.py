@@ -19,7 +19,8 @@ from gyro_fmu.model.plant import GyroPlantModel
 H = 5e-6
 #: Default communication steps other than H: the self-calibration FMUs run at carrier rate
 #: (10 samples per cycle of 4 kHz).
-DEFAULT_STEPS = {"GyroResonator": 25e-6, "GyroLoops": 25e-6, "GyroSensor": 1e-3}
+DEFAULT_STEPS = {"GyroResonator": 25e-6, "GyroLoops": 25e-6, "GyroSensor": 1e-3,
+                 "StabilizedPlatform": 1e-3}
 
 
 @pytest.mark.parametrize("name", FMU_NAMES)

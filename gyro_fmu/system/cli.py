@@ -154,7 +154,10 @@ def _cmd_ssp(args: argparse.Namespace) -> int:
     models = Path(args.models)
     ensure_fmus(models)
     if args.system == "platform":
-        return _platform_ssp(args, models)
+        from .platform import platform_ssp
+
+        return platform_ssp(models, Path(args.out) if args.out else None, args.run,
+                            args.compare)
     sc = scenario_from_args(args)
     path = write_ssp(sc, models, Path(args.out) if args.out else None)
     print(f"wrote {path}")
@@ -167,32 +170,6 @@ def _cmd_ssp(args: argparse.Namespace) -> int:
             worst = sorted(rel.items(), key=lambda kv: -kv[1])[:3]
             print("max |libcosim - fmpy| / max |fmpy|, worst signals: "
                   + ", ".join(f"{name} {value:.3g}" for name, value in worst))
-    return 0
-
-
-def _platform_ssp(args: argparse.Namespace, models: Path) -> int:
-    """`gyro-fmu ssp --system platform`: the stabilized platform with GyroSensor."""
-    import numpy as np
-
-    from ..cosim.master import run_cosimulation
-    from ..sensor.platform import STEP, STOP_TIME, platform_system
-    from .ssp import relative_differences, run_ssp_libcosim, write_system_ssp
-
-    components, connections = platform_system(models)
-    path = write_system_ssp(components, connections, STOP_TIME, STEP,
-                            Path(args.out) if args.out else models / "StabilizedPlatform.ssp")
-    print(f"wrote {path}")
-    if args.run or args.compare:
-        record = ("platform.theta", "platform.w", "gyro.Omega_meas")
-        result = run_ssp_libcosim(path, record=record)
-        late = np.asarray(result["time"]) >= STOP_TIME / 2
-        rms = float(np.sqrt(np.mean(np.asarray(result["platform.theta"])[late] ** 2)))
-        print(f"libcosim: RMS pointing error over the second half {rms * 1e3:.4g} mrad")
-        if args.compare:
-            rel = relative_differences(result, run_cosimulation(components, connections,
-                                                                STOP_TIME, STEP))
-            print("max |libcosim - fmpy| / max |fmpy|: "
-                  + ", ".join(f"{name} {value:.3g}" for name, value in rel.items()))
     return 0
 
 
