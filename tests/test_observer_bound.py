@@ -52,7 +52,7 @@ def test_the_observers_covariance_is_the_cramer_rao_bound(name):
     """Started at the truth with flat priors and told the noise, the EKF's sigmas after
     20 ms equal the free bound: Omega_z, the dampings, kxy and m to 1 % (measured
     0.00-0.15 %), kxx and kyy to 10 % (up to 8 %: the plant-state noise floor, STATE_NOISE
-    in gyro_observer.c, forgets their slow phase; without it 0.2 %)."""
+    in gyro_observer_internal.h, forgets their slow phase; without it 0.2 %)."""
     p, n = GYROS[name], 4000
     u, z, record = constant_run(p, n)
     std = 1e-5 * np.abs(z).max(axis=0)

@@ -63,6 +63,12 @@ def _reference_inputs(stop_time: float, step: float) -> np.ndarray:
     return out
 
 
+#: The observer's C files (fmu_src/core/, one per idea: gyro_observer_internal.h lists them).
+OBSERVER_SOURCES = ("gyro_observer.c", "gyro_observer_held.c", "gyro_observer_correct.c",
+                    "gyro_observer_refit.c", "gyro_observer_imm.c", "gyro_observer_rates.c",
+                    "gyro_observer_monitor.c")
+
+
 OBSERVER = FmuInterface(
     identifier="GyroObserver",
     description=(
@@ -108,5 +114,5 @@ OBSERVER = FmuInterface(
     ),
     doctor_check=({}, OUTPUTS),
     reference_inputs=_reference_inputs,
-    core_sources=("gyro_rng.c", "gyro_plant.c", "gyro_observer.c"),
+    core_sources=("gyro_rng.c", "gyro_plant.c", *OBSERVER_SOURCES),
 )

@@ -6,7 +6,7 @@ on the augmented state of eq. 5, X = [x, x', y, y', Omega_z, kxx, kyy, kxy, dxx,
 (x, y) or velocities (x', y'). Each step corrects with the measurement at t (eq. 8, gain
 from the covariance), then predicts to t + h with ux, uy and Omega_z held, exactly as
 the plant steps (eq. 5). Every per-step computation is the C core's
-(fmu_src/core/gyro_observer.c, the one GyroObserver.fmu runs); this class holds its
+(fmu_src/core/gyro_observer*.c, the one GyroObserver.fmu runs); this class holds its
 struct and shows its arrays as numpy views. Units: k's 1/s^2, d's 1/s, m kg, Omega_z
 rad/s, forces N. Why it is built this way, with measurements: docs/observer-design.md;
 why it stays sound at any step, start and signal scale (Joseph update, signal-scaled

@@ -1,6 +1,6 @@
 """Divergence monitor of GyroStateObserver: what it judges, and the errors it raises.
 
-The check (monitor_check in fmu_src/core/gyro_observer.c, with its thresholds) runs after
+The check (obs_monitor_check in fmu_src/core/gyro_observer_monitor.c; its thresholds in gyro_observer_internal.h) runs after
 every step and judges:
 
 - the estimate and covariance are finite;

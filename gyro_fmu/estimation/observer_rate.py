@@ -12,7 +12,7 @@ Navigation", 2001, sec. 11.6.6, eqs. 11.6.6-1 to -22):
 - slow: integrated random walk sized to follow rate_span at rate_bandwidth / 10;
 - agile: twice-integrated random walk sized to follow rate_span at rate_bandwidth;
 - rough x3, x10, x100: random walks of 3, 10 and 100 times the rough model's intensity
-  (ROUGH_GRADES in fmu_src/core/gyro_observer.c), so that the likelihood chooses a
+  (ROUGH_GRADES in fmu_src/core/gyro_observer_internal.h), so that the likelihood chooses a
   wandering rate's intensity: with the rough model alone, Gauss-Markov rates of 10-50 Hz
   had error/sigma 1.2-2.7 and 2-23 % of the samples beyond 3 sigma; with the grades
   0.84-1.0 and under 0.3 % (benchmarks/observer_families.py; their probabilities count
@@ -25,7 +25,7 @@ against 1e4-1e5; order 3, 100 Hz: 1.6e13 against ~1e13; docs/observer-rate-model
 
 The filters share the plant's linearization (the held step of eq. 5 about the
 combined estimate), so a step costs one held step, seven corrections and seven covariance
-propagations; the computation is the C core's (fmu_src/core/gyro_observer.c), this module
+propagations; the computation is the C core's (fmu_src/core/gyro_observer_imm.c and _rates.c), this module
 names the models and sizes them. A fixed rate model (constant, tracking
 at rate_bandwidth, or the expert q_Omega / omega_order) is the same code with one model.
 """

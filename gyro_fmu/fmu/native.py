@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -26,7 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from xml.etree.ElementTree import Element, SubElement, indent, tostring
 
-from ..estimation.interface import OBSERVER
+from ..estimation.interface import OBSERVER, OBSERVER_SOURCES
 from ..model.interfaces import PHYSICS_INTERFACES, FmuInterface
 from ..model.selfcal_interfaces import SELFCAL_INTERFACES
 from ..sensor.interface import SENSOR
@@ -75,9 +76,9 @@ TARGETS = (
 FLAGS = ["-std=c99", "-O2", "-g0", "-s", "-ffp-contract=off", "-fno-fast-math", "-Wall", "-Wextra"]
 FMI_LAYER = ("instance.c", "fmi2.c", "fmi3.c")
 FMI_HEADERS = ("fmi2_api.h", "fmi3_api.h", "model.h", "instance.h")
-CORE_SOURCES = ("gyro_text.c", "gyro_rng.c", "gyro_plant.c", "gyro_signals.c", "gyro_observer.c",
-                "gyro_master.c", "gyro_resonator.c", "gyro_loops.c", "gyro_carrier.c",
-                "gyro_demod.c")
+CORE_SOURCES = ("gyro_text.c", "gyro_rng.c", "gyro_plant.c", "gyro_signals.c",
+                *OBSERVER_SOURCES, "gyro_master.c", "gyro_resonator.c", "gyro_loops.c",
+                "gyro_carrier.c", "gyro_demod.c")
 #: Core sources every model's binary needs (the FMI layer's messages).
 COMMON_CORE = ("gyro_text.c",)
 GENERATION_TOOL = "gyro_fmu (native C, zig cc)"
@@ -252,10 +253,24 @@ def model_sources(interface: FmuInterface) -> list[Path]:
     """Every C file and header one model's binary is compiled from (variables.h aside)."""
     root = sources_root()
     core = root / "core"
+    sources = [core / n for n in (*COMMON_CORE, *interface.core_sources)]
     return [root / "models" / interface.identifier / "model.c",
-            *(root / "fmi" / n for n in (*FMI_LAYER, *FMI_HEADERS)),
-            *(core / n for n in (*COMMON_CORE, *interface.core_sources)),
-            *(core / n.replace(".c", ".h") for n in (*COMMON_CORE, *interface.core_sources))]
+            *(root / "fmi" / n for n in (*FMI_LAYER, *FMI_HEADERS)), *sources,
+            *(core / h for h in _core_headers(sources))]
+
+
+def _core_headers(sources: list[Path]) -> list[str]:
+    """The core headers the sources include, directly or through another core header."""
+    found: list[str] = []
+    todo = list(sources)
+    while todo:
+        text = todo.pop().read_text(encoding="utf-8")
+        for name in re.findall(r'^#include "(\w+\.h)"', text, re.M):
+            path = sources[0].parent / name
+            if name not in found and path.is_file():
+                found.append(name)
+                todo.append(path)
+    return sorted(found)
 
 
 # ---- compiling --------------------------------------------------------------------------

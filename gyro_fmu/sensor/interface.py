@@ -15,6 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..estimation.interface import OBSERVER_SOURCES
 from ..estimation.observer_tuning import ObserverTuning
 from ..model.drive import TwoToneDrive
 from ..model.interfaces import FmuInterface, Var, dataclass_parameters, input_table
@@ -126,7 +127,7 @@ SENSOR = FmuInterface(
     ),
     doctor_check=({"Omega_z": 1.0}, OUTPUTS),
     reference_inputs=_reference_inputs,
-    core_sources=("gyro_rng.c", "gyro_plant.c", "gyro_observer.c", "gyro_signals.c",
+    core_sources=("gyro_rng.c", "gyro_plant.c", *OBSERVER_SOURCES, "gyro_signals.c",
                   "gyro_sensor.c"),
     default_experiment=(0.05, 1e-3),
     datasheet=True,

@@ -1,0 +1,169 @@
+/* The interacting multiple models over the observer's rate models (Bar-Shalom, Li &
+ * Kirubarajan 2001, sec. 11.6.6, eqs. 11.6.6-1 to -22): mixing, each model's correction
+ * and likelihood, the probabilities, each model's prediction, the combined estimate. */
+#include "gyro_observer_internal.h"
+
+/* x, P = the mixture of the filters (xs, Ps) with weights w (eqs. 11.6.6-21, -22). */
+static void combine(const GyroObserver *o, const double xs[][NMAX],
+                    const double Ps[][NMAX][NMAX], const double *w, double *x,
+                    double P[NMAX][NMAX]) {
+    const int M = o->n_models, n = o->n;
+    for (int i = 0; i < n; i++) {
+        double acc = 0.0;
+        for (int j = 0; j < M; j++) acc += w[j] * xs[j][i];
+        x[i] = acc;
+    }
+    if (M == 1) {
+        memcpy(P, Ps[0], sizeof(double) * NMAX * NMAX);
+        return;
+    }
+    for (int a = 0; a < n; a++)
+        for (int b = 0; b <= a; b++) {
+            double acc = 0.0;
+            for (int j = 0; j < M; j++)
+                acc += w[j] * (Ps[j][a][b] + (xs[j][a] - x[a]) * (xs[j][b] - x[b]));
+            P[a][b] = acc;
+            P[b][a] = acc;
+        }
+}
+
+void gyro_observer_mix(GyroObserver *o) {
+    const int M = o->n_models;
+    if (M == 1) {
+        o->c[0] = 1.0;
+        return;
+    }
+    double x0[GYRO_OBS_MMAX][NMAX], P0[GYRO_OBS_MMAX][NMAX][NMAX], wj[GYRO_OBS_MMAX];
+    for (int j = 0; j < M; j++) {
+        double acc = 0.0;
+        for (int i = 0; i < M; i++) acc += o->Pi[i][j] * o->mu[i];
+        o->c[j] = acc;
+        for (int i = 0; i < M; i++) wj[i] = o->Pi[i][j] * o->mu[i] / acc;
+        combine(o, (const double(*)[NMAX])o->xs, (const double(*)[NMAX][NMAX])o->Ps, wj, x0[j],
+                P0[j]);
+    }
+    const int n = o->n;
+    for (int j = 0; j < M; j++) {
+        memcpy(o->xs[j], x0[j], n * sizeof(double));
+        for (int a = 0; a < n; a++) memcpy(o->Ps[j][a], P0[j][a], n * sizeof(double));
+    }
+}
+
+void gyro_observer_combine(const GyroObserver *o, const double *w, double *x,
+                           double P[GYRO_OBS_NMAX][GYRO_OBS_NMAX]) {
+    combine(o, (const double(*)[NMAX])o->xs, (const double(*)[NMAX][NMAX])o->Ps, w, x, P);
+}
+
+/* IMM correction at t: every filter corrected with the noise variances of the combined
+ * prediction; mu = c x likelihood, normalized (eqs. 11.6.6-15 to -19); x, P combined. */
+void obs_imm_update(GyroObserver *o, double z1, double z2, double h) {
+    double R[2], nu[2], ll[GYRO_OBS_MMAX];
+    obs_noise_variances(o, z1, z2, h, R, nu);
+    obs_monitor_innovations(o, nu, R);
+    obs_refit_correct(o, nu, R, h);
+    const int M = o->n_models;
+    for (int j = 0; j < M; j++) {
+        double logdet;
+        const double nis = obs_correct_with(o, o->xs[j], o->Ps[j], z1, z2, R, &logdet);
+        ll[j] = nis >= 0.0 ? -0.5 * (nis + logdet) : 0.0;
+    }
+    if (M > 1) {
+        double top = ll[0], total = 0.0;
+        for (int j = 1; j < M; j++) top = ll[j] > top ? ll[j] : top;
+        for (int j = 0; j < M; j++) {
+            o->mu[j] = o->c[j] * exp(ll[j] - top);
+            total += o->mu[j];
+        }
+        for (int j = 0; j < M; j++) o->mu[j] /= total;
+    } else {
+        o->mu[0] = 1.0;
+    }
+    combine(o, (const double(*)[NMAX])o->xs, (const double(*)[NMAX][NMAX])o->Ps, o->mu, o->x,
+            o->P);
+}
+
+/* Propagate one filter's x, P to t + h linearized about xbar ((s1, Phi, S) its held step):
+ * x[:4] -> s1 + Phi (x[:4] - xbar[:4]) + S (x[4:12] - xbar[4:12]), process noise q0 on x,
+ * vx and q1 on y, vy; parameters a random walk of qpar per step; the rate block
+ * x[IOM:] -> Fr x[IOM:] with noise Qr. P -> F P F' + Q (F's structure used), symmetrized. */
+static void predict_about(const GyroObserver *o, const double *xbar, const double s1[4],
+                          const double Phi[4][4], const double S[4][8], double *x,
+                          double P[NMAX][NMAX], const double Fr[][GYRO_OBS_RMAX],
+                          const double Qr[][GYRO_OBS_RMAX], double q0, double q1) {
+    const int n = o->n, r = n - IOM;
+    double d[12], om[GYRO_OBS_RMAX], A[NMAX][NMAX], B[NMAX][NMAX];
+    for (int c = 0; c < 12; c++) d[c] = x[c] - xbar[c];
+    for (int i = 0; i < 4; i++) {
+        double acc = s1[i];
+        for (int c = 0; c < 4; c++) acc += Phi[i][c] * d[c];
+        for (int c = 0; c < 8; c++) acc += S[i][c] * d[4 + c];
+        x[i] = acc;
+    }
+    for (int a = 0; a < r; a++) {
+        double acc = 0.0;
+        for (int c = 0; c < r; c++) acc += Fr[a][c] * x[IOM + c];
+        om[a] = acc;
+    }
+    for (int a = 0; a < r; a++) x[IOM + a] = om[a];
+    for (int k = 0; k < n; k++) { /* A = F P */
+        for (int i = 0; i < 4; i++) {
+            double acc = 0.0;
+            for (int c = 0; c < 4; c++) acc += Phi[i][c] * P[c][k];
+            for (int c = 0; c < 8; c++) acc += S[i][c] * P[4 + c][k];
+            A[i][k] = acc;
+        }
+        for (int i = 4; i < IOM; i++) A[i][k] = P[i][k];
+        for (int a = 0; a < r; a++) {
+            double acc = 0.0;
+            for (int c = 0; c < r; c++) acc += Fr[a][c] * P[IOM + c][k];
+            A[IOM + a][k] = acc;
+        }
+    }
+    for (int i = 0; i < n; i++) { /* B = (F P) F' */
+        for (int j = 0; j < 4; j++) {
+            double acc = 0.0;
+            for (int c = 0; c < 4; c++) acc += A[i][c] * Phi[j][c];
+            for (int c = 0; c < 8; c++) acc += A[i][4 + c] * S[j][c];
+            B[i][j] = acc;
+        }
+        for (int j = 4; j < IOM; j++) B[i][j] = A[i][j];
+        for (int a = 0; a < r; a++) {
+            double acc = 0.0;
+            for (int c = 0; c < r; c++) acc += A[i][IOM + c] * Fr[a][c];
+            B[i][IOM + a] = acc;
+        }
+    }
+    B[0][0] += q0;
+    B[1][1] += q0;
+    B[2][2] += q1;
+    B[3][3] += q1;
+    for (int i = IPAR; i < IOM; i++) B[i][i] += o->qpar;
+    for (int a = 0; a < r; a++)
+        for (int c = 0; c < r; c++) B[IOM + a][IOM + c] += Qr[a][c];
+    for (int i = 0; i < n; i++) {
+        P[i][i] = B[i][i];
+        for (int j = 0; j < i; j++) {
+            const double v = 0.5 * (B[i][j] + B[j][i]);
+            P[i][j] = v;
+            P[j][i] = v;
+        }
+    }
+}
+
+/* IMM prediction to t + h: mix, propagate every filter about the combined estimate (one
+ * held step, eq. 5), then x, P = their mixture with the predicted probabilities c. */
+void obs_imm_predict(GyroObserver *o, double ux, double uy, double h) {
+    double s1[4], Phi[4][4], S[4][8], xbar[NMAX];
+    obs_linearize(o, o->x, ux, uy, h, s1, Phi, S);
+    obs_refit_predict(o, (const double(*)[4])Phi, (const double(*)[8])S);
+    gyro_observer_mix(o);
+    const double a0 = STATE_NOISE * o->peak[0] / o->hgain[0];
+    const double a1 = STATE_NOISE * o->peak[1] / o->hgain[1];
+    memcpy(xbar, o->x, sizeof xbar); /* the linearization point is replaced only below */
+    for (int j = 0; j < o->n_models; j++)
+        predict_about(o, xbar, s1, Phi, S, o->xs[j], o->Ps[j],
+                      (const double(*)[GYRO_OBS_RMAX])o->Fr[j],
+                      (const double(*)[GYRO_OBS_RMAX])o->Qr[j], a0 * a0, a1 * a1);
+    combine(o, (const double(*)[NMAX])o->xs, (const double(*)[NMAX][NMAX])o->Ps, o->c, o->x,
+            o->P);
+}

@@ -1,0 +1,118 @@
+/* The observer's internals, shared by its files and by nothing else (gyro_observer.h is
+ * the API): shorthands, the tuned constants with the measurements behind them, and the
+ * functions one file calls in another. One file per idea, as PX4's EKF:
+ *   gyro_observer.c          construction, the step and its halves, outputs, restored states
+ *   gyro_observer_held.c     the exact held-input step of eq. 5 and its sensitivities
+ *   gyro_observer_correct.c  the correction of eq. 8: noise variances, gain, innovations
+ *   gyro_observer_refit.c    the re-fit test: is the estimate still the data's best fit?
+ *   gyro_observer_imm.c      the IMM over the rate models: mix, correct, predict, combine
+ *   gyro_observer_rates.c    the rate models: transitions, process noise, switching
+ *   gyro_observer_monitor.c  the divergence monitor and the words of its verdicts */
+#ifndef GYRO_OBSERVER_INTERNAL_H
+#define GYRO_OBSERVER_INTERNAL_H
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "gyro_observer.h"
+#include "gyro_text.h"
+
+#define NMAX GYRO_OBS_NMAX
+#define KMAX GYRO_OBS_KMAX
+#define IPAR GYRO_OBS_IPAR
+#define IOM GYRO_OBS_IOM
+
+/* Longer held steps (||A h||_inf > STEP_NORM) are split into equal sub-steps. */
+static const double STEP_NORM = 0.5;
+/* Most sub-steps of one held step (bounded work; held_step_split). A state the monitor
+ * accepts needs a few at the largest step accepted (omega h <= OMEGA_H_MAX). */
+static const double SPLIT_MAX = 4096.0;
+/* Process noise of the plant state per step relative to each signal's running peak: a
+ * floor far below any pick-off noise. Without it the correlations between the plant state
+ * and the parameters of a constant-rate filter reach 1 - 1e-16 within seconds and
+ * rounding breaks positive definiteness (lost at 3.09 s at noise 1e-4). */
+static const double STATE_NOISE = 1e-9;
+/* The adaptive set's rough and slow models follow rate_bandwidth / SLOW_FRACTION. */
+static const double SLOW_FRACTION = 10.0;
+/* More rough models (random walks of Omega_z) at these multiples of the rough model's
+ * intensity, after the four named ones: a wandering rate's intensity is chosen by the IMM
+ * likelihood among graded ones (one fixed intensity left 30-50 Hz wandering rates at
+ * error/sigma 1.9-2.7; docs/observer-rate-model.md). */
+static const double ROUGH_GRADES[GYRO_OBS_MMAX - 4] = {3.0, 10.0, 100.0};
+/* Auto prior of [x, vx, y, vy] started by the drive (plant at rest): this fraction of the
+ * static deflection; 10 % or more let the velocity-pair filter converge to Omega -5.
+ * Started by a measurement above its noise (a plant not known at rest): its size; 1 %
+ * there made relative-noise runs overconfident (dyy error/sigma 3.4, 300 ms) since the
+ * innovation floor of R never saw a large early innovation. */
+static const double PRIOR_FRACTION = 0.01;
+static const double PRIOR_FRACTION_MEASURED = 1.0;
+/* Largest omega h accepted: the sampling must be 25 % faster than the Nyquist rate of the
+ * guessed resonance (omega h = pi). Beyond, the resonance aliases: measured at 200 us
+ * (omega h 4.6) runs from 10 % off ended wrong with status 0; at 100 us (2.3) they
+ * converged or were refused. */
+static const double OMEGA_H_MAX = 2.5;
+/* Warning above this omega h (US 2011/0314910's held step stays exact, but the samples
+ * resolve the resonance less and less: dampings and the tracking degrade long before the
+ * refusal, and the sigmas do not say so; issue "observer honest when the rate moves"). */
+static const double OMEGA_H_WARN = GYRO_OBS_OMEGA_H_WARN;
+/* Monitor. Corrections per block of the innovation tests (1 ms at the default 5 us). */
+static const int BLOCK = 200;
+/* Warning above the chi-square quantile of this normal quantile (p = 1e-4 per block). */
+static const double NIS_WARN_Z = 3.719;
+/* Lost when the block mean NIS exceeds this (innovations ~70 sigma RMS; expected 2): a
+ * noise 10x larger than told gives ~200 (a warning), a diverged filter 1e6 and more. */
+static const double NIS_LOST = 1.0e4;
+/* Relative mode (noise estimated from the innovations): warning above REL_WARN, lost above
+ * REL_LOST, block RMS innovations relative to each signal's peak. The noise is estimated,
+ * so innovations above noise_rel are no warning; a slow misfit is caught by whiteness. */
+static const double REL_WARN = 0.02, REL_LOST = 0.2;
+/* Warning when an innovation sequence's lag-1 autocorrelation over a block exceeds
+ * CORR_WARN (white: 0 +- 0.07) while the mean NIS exceeds NIS_MIN: the innovations are a
+ * slowly varying misfit, not noise, so the sigmas (which assume white noise) are too
+ * small. A converged noise-free filter has NIS ~1e-8 and is not flagged. */
+static const double CORR_WARN = 0.5, NIS_MIN = 0.1;
+/* Time constant (s) of the innovations' running mean square at the start (innov_tau's
+ * default); a longer innov_tau is reached as the run goes (rel_R). */
+static const double INNOV_TAU_START = 1e-3;
+/* Re-fit test: window time constant (s) and warning threshold on T (chi-square, 8 dof;
+ * measured on good runs in docs/observer-soundness.md). */
+static const double REFIT_TAU = 0.02;
+static const double REFIT_WARN = 40.0;
+/* kxx, kyy and 1/m must stay within this factor of their initial guesses. */
+static const double RATIO = 100.0;
+
+/* float(k!) for k < 48: the Frechet series' weights (gyro_observer_held.c). */
+extern const double gyro_obs_factorial_table[48];
+#define FACTORIAL gyro_obs_factorial_table
+
+static inline double dmax(double a, double b) { return a >= b ? a : b; }
+static inline double dmin(double a, double b) { return a <= b ? a : b; }
+
+/* gyro_observer_held.c */
+void obs_linearize(const GyroObserver *o, const double *x, double ux, double uy, double h,
+                   double s1[4], double Phi[4][4], double S[4][8]);
+
+/* gyro_observer_correct.c */
+void obs_noise_variances(GyroObserver *o, double z1, double z2, double h, double R[2],
+                         double nu[2]);
+double obs_correct_with(const GyroObserver *o, double *x, double P[NMAX][NMAX], double z1,
+                        double z2, const double R[2], double *logdet);
+int obs_innovation_covariance(const GyroObserver *o, const double R[2], double S[4]);
+void obs_monitor_innovations(GyroObserver *o, const double nu[2], const double R[2]);
+
+/* gyro_observer_refit.c */
+void obs_refit_correct(GyroObserver *o, const double nu[2], const double R[2], double h);
+void obs_refit_predict(GyroObserver *o, const double Phi[4][4], const double S[4][8]);
+void obs_refit_restart(GyroObserver *o);
+double obs_refit_judge(GyroObserver *o, double h);
+
+/* gyro_observer_imm.c */
+void obs_imm_update(GyroObserver *o, double z1, double z2, double h);
+void obs_imm_predict(GyroObserver *o, double ux, double uy, double h);
+
+/* gyro_observer_monitor.c */
+int obs_monitor_check(GyroObserver *o);
+void obs_lose(GyroObserver *o, double h);
+
+#endif

@@ -1,0 +1,60 @@
+/* The observer's rate models: each an order-th random walk of Omega_z of an intensity set
+ * by rate_span and rate_bandwidth; their transitions and process noise over a step and the
+ * switching probabilities between them (docs/observer-rate-model.md). */
+#include "gyro_observer_internal.h"
+
+/* q (rad^2/s^(2 order + 1)) of white noise on the order-th derivative of Omega_z that
+ * follows a sine of amplitude span (rad/s) at bandwidth (Hz): span^2 w^(2 order - 1) / 2 pi. */
+static double intensity(int order, double span, double bandwidth) {
+    const double w = 2.0 * GYRO_PI * bandwidth;
+    return span * span * pow(w, 2 * order - 1) / (2.0 * GYRO_PI);
+}
+
+/* Transition and process noise over h of an order-th random walk of intensity q, embedded
+ * in the rate block (unused derivatives 0). */
+static void rate_process(int order, double q, double h, double F[GYRO_OBS_RMAX][GYRO_OBS_RMAX],
+                         double Q[GYRO_OBS_RMAX][GYRO_OBS_RMAX]) {
+    memset(F, 0, sizeof(double) * GYRO_OBS_RMAX * GYRO_OBS_RMAX);
+    memset(Q, 0, sizeof(double) * GYRO_OBS_RMAX * GYRO_OBS_RMAX);
+    for (int a = 0; a < order; a++)
+        for (int c = a; c < order; c++) F[a][c] = pow(h, c - a) / FACTORIAL[c - a];
+    for (int a = 0; a < order; a++)
+        for (int c = 0; c < order; c++) {
+            const int pa = order - 1 - a, pc = order - 1 - c;
+            Q[a][c] = q * pow(h, pa + pc + 1) / (FACTORIAL[pa] * FACTORIAL[pc] * (pa + pc + 1));
+        }
+}
+
+void gyro_observer_set_step(GyroObserver *o, double h) {
+    const GyroObserverTuning *tun = &o->tuning;
+    const double span = tun->rate_span, f = tun->rate_bandwidth;
+    int orders[GYRO_OBS_MMAX];
+    double qs[GYRO_OBS_MMAX];
+    int M = 1;
+    switch (tun->rate_model) {
+    case 0: { /* adaptive: constant, rough, slow, agile */
+        const double slow = f / SLOW_FRACTION;
+        orders[0] = 1, qs[0] = 0.0;
+        orders[1] = 1, qs[1] = intensity(1, span, slow);
+        orders[2] = 2, qs[2] = intensity(2, span, slow);
+        orders[3] = 3, qs[3] = intensity(3, span, f);
+        M = GYRO_OBS_MMAX;
+        for (int j = 4; j < M; j++) orders[j] = 1, qs[j] = ROUGH_GRADES[j - 4] * qs[1];
+        break;
+    }
+    case 1: orders[0] = 1, qs[0] = 0.0; break;
+    case 2: orders[0] = 3, qs[0] = intensity(3, span, f); break;
+    default: orders[0] = tun->omega_order, qs[0] = tun->q_Omega; break;
+    }
+    for (int j = 0; j < M; j++) rate_process(orders[j], qs[j], h, o->Fr[j], o->Qr[j]);
+    memset(o->Pi, 0, sizeof o->Pi);
+    if (M > 1) {
+        const double sw = -expm1(-h / tun->rate_dwell); /* P(leave a model within h) */
+        for (int i = 0; i < M; i++)
+            for (int j = 0; j < M; j++) o->Pi[i][j] = i == j ? 1.0 - sw : sw / (M - 1);
+    } else {
+        o->Pi[0][0] = 1.0;
+    }
+    o->qpar = tun->q_param_rel * h;
+    o->h_cached = h;
+}
