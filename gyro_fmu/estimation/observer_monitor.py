@@ -1,7 +1,7 @@
 """Divergence monitor of GyroStateObserver: what it judges, and the errors it raises.
 
-The check (obs_monitor_check in fmu_src/core/gyro_observer_monitor.c; its thresholds in gyro_observer_internal.h) runs after
-every step and judges:
+The check (obs_monitor_check in fmu_src/core/gyro_observer_monitor.c; its thresholds in
+gyro_observer_internal.h) runs after every step and judges:
 
 - the estimate and covariance are finite;
 - the covariance has a Cholesky factor (is symmetric positive definite);

@@ -25,9 +25,10 @@ against 1e4-1e5; order 3, 100 Hz: 1.6e13 against ~1e13; docs/observer-rate-model
 
 The filters share the plant's linearization (the held step of eq. 5 about the
 combined estimate), so a step costs one held step, seven corrections and seven covariance
-propagations; the computation is the C core's (fmu_src/core/gyro_observer_imm.c and _rates.c), this module
-names the models and sizes them. A fixed rate model (constant, tracking
-at rate_bandwidth, or the expert q_Omega / omega_order) is the same code with one model.
+propagations; the computation is the C core's (fmu_src/core/gyro_observer_imm.c and
+gyro_observer_rates.c), this module names the models and sizes them. A fixed rate model
+(constant, tracking at rate_bandwidth, or the expert q_Omega / omega_order) is the same code
+with one model.
 """
 
 from __future__ import annotations
