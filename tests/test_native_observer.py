@@ -181,3 +181,17 @@ def test_the_pythonfmu_flavour_equals_the_native_fmu(pythonfmu_models) -> None:
     flavour = fmu_rows(2, guess, tun, 2, steps, ux, z1, z2,
                        fmu=pythonfmu_models / "GyroObserver.fmu")
     assert np.array_equal(native, flavour)
+
+
+def test_the_held_steps_table_is_the_factorials_quotient() -> None:
+    """The held step's written-out table equals j! m! / (j + m + 1)! computed from the
+    factorials in double precision, every entry (Python's float arithmetic is IEEE's)."""
+    from gyro_fmu.core.observer import observer_core
+
+    lib = observer_core()
+    f = [lib.gyro_observer_factorial(k) for k in range(48)]
+    assert f[:4] == [1.0, 1.0, 2.0, 6.0]
+    for j in range(24):
+        for m in range(24):
+            assert lib.gyro_observer_beta(j, m) == f[j] * f[m] / f[j + m + 1], (j, m)
+    assert lib.gyro_observer_beta(24, 0) == lib.gyro_observer_beta(0, -1) == -1.0

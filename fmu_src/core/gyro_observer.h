@@ -237,6 +237,8 @@ int gyro_observer_cholesky_ok(const double *P, int n);
 
 /* float(k!) for k <= 47 (the Frechet series' weights); -1 beyond. */
 double gyro_observer_factorial(int k);
+/* The held step's table j! m! / (j + m + 1)! for j, m < GYRO_OBS_KMAX; -1 beyond. */
+double gyro_observer_beta(int j, int m);
 
 size_t gyro_observer_size(void);
 

@@ -51,28 +51,29 @@ double obs_correct_with(const GyroObserver *o, double *x, double P[NMAX][NMAX], 
     *logdet = 0.0;
     if (!(det > 0.0 && a > 0.0)) return -1.0;
     const double s00 = d / det, s01 = -b_ / det, s10 = -c / det, s11 = a / det;
-    double PHt[NMAX][2], K[NMAX][2];
+    /* the gain's two columns K0, K1 and P H' as separate rows: the loops over j below run
+     * over contiguous memory (vectorized) with every expression as it was */
+    double PHt0[NMAX], PHt1[NMAX], K0[NMAX], K1[NMAX];
     for (int i = 0; i < n; i++) {
-        PHt[i][0] = P[i][i0] * g0;
-        PHt[i][1] = P[i][i1] * g1;
+        PHt0[i] = P[i][i0] * g0;
+        PHt1[i] = P[i][i1] * g1;
     }
     for (int i = 0; i < n; i++) {
-        K[i][0] = PHt[i][0] * s00 + PHt[i][1] * s10;
-        K[i][1] = PHt[i][0] * s01 + PHt[i][1] * s11;
-        x[i] = x[i] + (K[i][0] * nu0 + K[i][1] * nu1);
+        K0[i] = PHt0[i] * s00 + PHt1[i] * s10;
+        K1[i] = PHt0[i] * s01 + PHt1[i] * s11;
+        x[i] = x[i] + (K0[i] * nu0 + K1[i] * nu1);
     }
     if (o->tuning.joseph) { /* (I - K H) P (I - K H)' + K R K', O(n^2): H picks i0, i1 */
         double M[NMAX][NMAX];
         for (int i = 0; i < n; i++) {
-            const double k0 = K[i][0] * g0, k1 = K[i][1] * g1;
+            const double k0 = K0[i] * g0, k1 = K1[i] * g1;
             for (int j = 0; j < n; j++) M[i][j] = P[i][j] - (k0 * P[i0][j] + k1 * P[i1][j]);
         }
         for (int i = 0; i < n; i++) {
             const double m0 = M[i][i0] * g0, m1 = M[i][i1] * g1;
-            const double kr0 = K[i][0] * R[0], kr1 = K[i][1] * R[1];
+            const double kr0 = K0[i] * R[0], kr1 = K1[i] * R[1];
             for (int j = 0; j < n; j++)
-                P[i][j] = (M[i][j] - (m0 * K[j][0] + m1 * K[j][1])) +
-                          (kr0 * K[j][0] + kr1 * K[j][1]);
+                P[i][j] = (M[i][j] - (m0 * K0[j] + m1 * K1[j])) + (kr0 * K0[j] + kr1 * K1[j]);
         }
         for (int i = 0; i < n; i++) /* symmetric to the last bit */
             for (int j = 0; j < i; j++) {
@@ -82,7 +83,7 @@ double obs_correct_with(const GyroObserver *o, double *x, double P[NMAX][NMAX], 
             }
     } else {
         for (int i = 0; i < n; i++)
-            for (int j = 0; j < n; j++) P[i][j] -= K[i][0] * PHt[j][0] + K[i][1] * PHt[j][1];
+            for (int j = 0; j < n; j++) P[i][j] -= K0[i] * PHt0[j] + K1[i] * PHt1[j];
     }
     *logdet = log(det);
     return nu0 * (s00 * nu0 + s01 * nu1) + nu1 * (s10 * nu0 + s11 * nu1);

@@ -17,14 +17,22 @@ static void combine(const GyroObserver *o, const double xs[][NMAX],
         memcpy(P, Ps[0], sizeof(double) * NMAX * NMAX);
         return;
     }
-    for (int a = 0; a < n; a++)
-        for (int b = 0; b <= a; b++) {
-            double acc = 0.0;
-            for (int j = 0; j < M; j++)
-                acc += w[j] * (Ps[j][a][b] + (xs[j][a] - x[a]) * (xs[j][b] - x[b]));
-            P[a][b] = acc;
-            P[b][a] = acc;
+    /* P[a][b] = sum_j w_j (Ps_j[a][b] + d_j[a] d_j[b]), d_j = xs_j - x, summed over j in
+     * order for every b at once (the inner loop runs over contiguous b: vectorized). */
+    double d[GYRO_OBS_MMAX][NMAX];
+    for (int j = 0; j < M; j++)
+        for (int a = 0; a < n; a++) d[j][a] = xs[j][a] - x[a];
+    for (int a = 0; a < n; a++) {
+        double acc[NMAX] = {0.0};
+        for (int j = 0; j < M; j++) {
+            const double wj = w[j], dja = d[j][a], *Pja = Ps[j][a], *dj = d[j];
+            for (int b = 0; b <= a; b++) acc[b] += wj * (Pja[b] + dja * dj[b]);
         }
+        for (int b = 0; b <= a; b++) {
+            P[a][b] = acc[b];
+            P[b][a] = acc[b];
+        }
+    }
 }
 
 void gyro_observer_mix(GyroObserver *o) {
@@ -105,19 +113,21 @@ static void predict_about(const GyroObserver *o, const double *xbar, const doubl
         om[a] = acc;
     }
     for (int a = 0; a < r; a++) x[IOM + a] = om[a];
-    for (int k = 0; k < n; k++) { /* A = F P */
-        for (int i = 0; i < 4; i++) {
-            double acc = 0.0;
-            for (int c = 0; c < 4; c++) acc += Phi[i][c] * P[c][k];
-            for (int c = 0; c < 8; c++) acc += S[i][c] * P[4 + c][k];
-            A[i][k] = acc;
-        }
-        for (int i = 4; i < IOM; i++) A[i][k] = P[i][k];
-        for (int a = 0; a < r; a++) {
-            double acc = 0.0;
-            for (int c = 0; c < r; c++) acc += Fr[a][c] * P[IOM + c][k];
-            A[IOM + a][k] = acc;
-        }
+    /* A = F P, row by row over contiguous k (each sum over c in order: the same bits) */
+    for (int i = 0; i < 4; i++) {
+        double acc[NMAX] = {0.0};
+        for (int c = 0; c < 4; c++)
+            for (int k = 0; k < n; k++) acc[k] += Phi[i][c] * P[c][k];
+        for (int c = 0; c < 8; c++)
+            for (int k = 0; k < n; k++) acc[k] += S[i][c] * P[4 + c][k];
+        memcpy(A[i], acc, n * sizeof(double));
+    }
+    for (int i = 4; i < IOM; i++) memcpy(A[i], P[i], n * sizeof(double));
+    for (int a = 0; a < r; a++) {
+        double acc[NMAX] = {0.0};
+        for (int c = 0; c < r; c++)
+            for (int k = 0; k < n; k++) acc[k] += Fr[a][c] * P[IOM + c][k];
+        memcpy(A[IOM + a], acc, n * sizeof(double));
     }
     for (int i = 0; i < n; i++) { /* B = (F P) F' */
         for (int j = 0; j < 4; j++) {

@@ -88,6 +88,7 @@ FUNCTIONS = {
     "gyro_observer_set_step": (None, [_O, _D]),
     "gyro_observer_cholesky_ok": (c_int, [_DP, c_int]),
     "gyro_observer_factorial": (_D, [c_int]),
+    "gyro_observer_beta": (_D, [c_int, c_int]),
     "gyro_observer_mix": (None, [_O]),
     "gyro_observer_combine": (None, [_O, _DP, _DP, _DP]),
 }
