@@ -12,10 +12,12 @@ import zipfile
 
 import numpy as np
 import pytest
+from scipy.stats import t as student
 
 from gyro_fmu.cli import main
 from gyro_fmu.fmu.build import prebuilt_fmu
 from gyro_fmu.sensor.datasheet import (
+    CHECK_PROBABILITY,
     CHECK_SEEDS,
     DATASHEET,
     DATASHEET_TEXT,
@@ -25,23 +27,26 @@ from gyro_fmu.sensor.datasheet import (
     check_datasheet,
     read_fmu_datasheet,
 )
+from gyro_fmu.sensor.presets import SENSOR_PRESETS
 from gyro_fmu.studies.response import bandwidth_3db, sine_gain
 
 
-@pytest.fixture(scope="module")
-def checked(tmp_path_factory):
-    """`gyro-fmu datasheet --check`: the FMU's datasheet against seeds 101 and 102."""
+@pytest.fixture(scope="module", params=list(SENSOR_PRESETS))
+def checked(request, tmp_path_factory):
+    """`gyro-fmu datasheet --check --preset P`: the FMU's datasheet of each preset against
+    seeds 101 and 102."""
     out = tmp_path_factory.mktemp("datasheet")
-    code = main(["datasheet", "--check", "--out", str(out)])
-    return code, json.loads((out / "datasheet.json").read_text()), out
+    code = main(["datasheet", "--check", "--preset", request.param, "--out", str(out)])
+    return request.param, code, json.loads((out / "datasheet.json").read_text()), out
 
 
-def test_other_seeds_reproduce_the_shipped_datasheet(checked, capsys):
-    code, measured, out = checked
+def test_other_seeds_reproduce_the_shipped_datasheet(checked):
+    preset, code, measured, out = checked
     assert code == 0
     assert measured["protocol"]["seeds"] == list(CHECK_SEEDS)
     assert (out / "datasheet.png").stat().st_size > 10_000
-    shipped = read_fmu_datasheet(prebuilt_fmu("GyroSensor"))
+    shipped = read_fmu_datasheet(prebuilt_fmu("GyroSensor"), preset)
+    assert shipped["preset"] == preset and shipped["settings"] == SENSOR_PRESETS[preset]
     assert shipped["protocol"]["seeds"] == list(SEEDS)
     assert set(TERMS) <= set(shipped["figures"])
     for name in TERMS:  # a spread, not a constant: six seeds that differ
@@ -49,16 +54,29 @@ def test_other_seeds_reproduce_the_shipped_datasheet(checked, capsys):
 
 
 def test_the_check_fails_on_a_sensor_that_is_not_the_one_described(checked):
-    """The same measurement against a datasheet whose bandwidth is 10 % higher, and whose
-    latency is 10 % shorter: both named (the spread of each is under 1 %)."""
-    _, measured, _ = checked
-    shipped = read_fmu_datasheet(prebuilt_fmu("GyroSensor"))
+    """The same measurement against a datasheet whose bandwidth is higher, and whose latency
+    shorter, by twice what the check allows each: both named (the measurement passed, so it
+    lies within one allowance of the true datasheet and beyond one of the shifted one)."""
+    preset, _, measured, _ = checked
+    shipped = read_fmu_datasheet(prebuilt_fmu("GyroSensor"), preset)
     assert check_datasheet(shipped, measured) == []
+    k, m = len(shipped["protocol"]["seeds"]), len(measured["protocol"]["seeds"])
+    q = student.ppf(0.5 + CHECK_PROBABILITY / 2, k - 1) * math.sqrt(1 / k + 1 / m)
     other = copy.deepcopy(shipped)
-    other["figures"]["bandwidth"]["value"] *= 1.1
-    other["figures"]["latency"]["value"] *= 0.9
+    for name, sign in (("bandwidth", 1), ("latency", -1)):
+        other["figures"][name]["value"] += sign * 2 * q * shipped["figures"][name]["uncertainty"]
     problems = check_datasheet(other, measured)
     assert [p.split(":")[0] for p in problems] == ["latency", "bandwidth"]
+
+
+def test_the_presets_are_different_gyros():
+    """The presets' datasheets differ where their gyros do: the low-cost one (noise x 3,
+    Q 300) is at least twice as noisy as the consumer one (angle random walk bound) and
+    rings more after a step (overshoot)."""
+    sheets = {p: read_fmu_datasheet(prebuilt_fmu("GyroSensor"), p)["figures"]
+              for p in SENSOR_PRESETS}
+    assert sheets["low-cost"]["arw"]["value"] > 2 * sheets["consumer"]["arw"]["value"]
+    assert sheets["low-cost"]["overshoot"]["value"] > 2 * sheets["consumer"]["overshoot"]["value"]
 
 
 def test_fmi2_and_fmi3_carry_the_same_datasheet():

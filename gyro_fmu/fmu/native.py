@@ -410,8 +410,9 @@ def build_native(dest: Path, names: tuple[str, ...] = tuple(NATIVE_INTERFACES),
                                reference) for version in fmi_versions]
             if interface.datasheet and reference and 2 in fmi_versions:
                 if say is not None:
-                    say(f"{name}'s datasheet: measured from its own output (about 40 s), "
-                        "or kept from the last build of the same binary")
+                    say(f"{name}'s datasheets, one per preset: measured from its own "
+                        "output (about 3 minutes), or kept from the last build of the same "
+                        "binary")
                 from ..sensor.datasheet import add_datasheet
 
                 add_datasheet(built, Path(dest) / f".{name}.datasheet.json")

@@ -26,7 +26,7 @@ def sources_digest() -> str:
              for f in [*root.glob("core/*"), *root.glob("fmi/*"), *root.glob("models/*/*")]
              if f.is_file()}
     for name in (*DECLARATION_FILES, "fmu/native.py", "fmu/macho.py", "fmu/units.py",
-                 "sensor/datasheet.py"):
+                 "sensor/datasheet.py", "sensor/presets.py", "sensor/gyros.py"):
         files[name] = PACKAGE_DIR / name
     h = hashlib.sha256()
     for name in sorted(files):

@@ -41,6 +41,7 @@ from ..cosim.instances import LogCollector, fmi2_callbacks
 from ..errors import GyroFmuError
 from ..studies.allan import BIAS_INSTABILITY_FACTOR, allan_deviation, allan_taus
 from ..studies.response import bandwidth_3db, sine_gain
+from .presets import SENSOR_PRESETS
 
 #: The protocol (s, rad/s, Hz). Host steps: 1 ms for the records, 0.2 ms for the step
 #: and the sines (their hold lags h/2, taken out of the phase).
@@ -58,6 +59,8 @@ CHECK_SEEDS = (101, 102)
 CHECK_PROBABILITY = 0.999
 DATASHEET = "documentation/datasheet.json"
 DATASHEET_TEXT = "documentation/datasheet.md"
+#: The preset whose datasheet is DATASHEET: the FMU's own defaults.
+DEFAULT_PRESET = "consumer"
 FORMAT = "gyro_fmu datasheet 1"
 
 
@@ -327,7 +330,7 @@ def public(datasheet: dict) -> dict:
 def datasheet_markdown(sheet: dict) -> str:
     """The datasheet in human form: a table of the figures, then the protocol."""
     p = sheet["protocol"]
-    lines = [f"# {sheet['model']}: datasheet", "",
+    lines = [f"# {sheet['model']}: datasheet ({sheet.get('preset', 'custom settings')})", "",
              "Measured by the build from this FMU's own output (gyro_fmu "
              "docs/datasheet.md); the same figures in datasheet.json. Settings: "
              f"{sheet['settings'] or 'the FMU defaults'}.", "",
@@ -344,15 +347,16 @@ def datasheet_markdown(sheet: dict) -> str:
     return "\n".join(lines)
 
 
-def read_fmu_datasheet(fmu: Path) -> dict:
-    """documentation/datasheet.json of an FMU."""
+def read_fmu_datasheet(fmu: Path, preset: str = DEFAULT_PRESET) -> dict:
+    """The datasheet of a preset (default: the FMU's defaults) that an FMU carries."""
     import zipfile
 
+    name = sheet_names(preset)[0]
     with zipfile.ZipFile(fmu) as z:
         try:
-            return json.loads(z.read(DATASHEET))
+            return json.loads(z.read(name))
         except KeyError:
-            raise DatasheetError(f"{fmu} has no {DATASHEET}: measure one with "
+            raise DatasheetError(f"{fmu} has no {name}: measure one with "
                                  "`gyro-fmu datasheet`") from None
 
 
@@ -374,27 +378,41 @@ def fmu_key(fmu: Path) -> str:
     return h.hexdigest()
 
 
+def sheet_names(preset: str) -> tuple[str, str]:
+    """The FMU members of a preset's datasheet (JSON, text): the defaults' (consumer) are
+    DATASHEET and DATASHEET_TEXT, another preset's documentation/datasheet-<name>.*."""
+    if preset == DEFAULT_PRESET:
+        return DATASHEET, DATASHEET_TEXT
+    return f"documentation/datasheet-{preset}.json", f"documentation/datasheet-{preset}.md"
+
+
 def add_datasheet(fmus: Sequence[Path], cache: Path) -> dict:
-    """Measure the datasheet of fmus[0] (FMI 2.0) at its defaults, or take it from `cache`
-    when that was measured from the same FMU, and write it into every FMU of `fmus`
-    (FMI 2.0 and 3.0 share the binaries) as DATASHEET. Returns it."""
+    """Measure the datasheet of fmus[0] (FMI 2.0) at every preset (SENSOR_PRESETS), or take
+    them from `cache` when measured from the same FMU and presets, and write them into
+    every FMU of `fmus` (FMI 2.0 and 3.0 share the binaries). Returns them by preset."""
+    import hashlib
     import zipfile
 
-    key = fmu_key(fmus[0])
-    sheet = None
+    key = hashlib.sha256((fmu_key(fmus[0]) + json.dumps(SENSOR_PRESETS, sort_keys=True))
+                         .encode()).hexdigest()
+    sheets = None
     if cache.is_file():
         cached = json.loads(cache.read_text())
         if cached.get("key") == key:
-            sheet = cached["datasheet"]
-    if sheet is None:
-        sheet = public(measure_datasheet(fmus[0]))
-        cache.write_text(json.dumps({"key": key, "datasheet": sheet}))
-    members = {DATASHEET: json.dumps(sheet, indent=1) + "\n",
-               DATASHEET_TEXT: datasheet_markdown(sheet)}
+            sheets = cached["sheets"]
+    if sheets is None:
+        sheets = {name: {**public(measure_datasheet(fmus[0], settings)), "preset": name}
+                  for name, settings in SENSOR_PRESETS.items()}
+        cache.write_text(json.dumps({"key": key, "sheets": sheets}))
+    members = {}
+    for name, sheet in sheets.items():
+        json_name, text_name = sheet_names(name)
+        members[json_name] = json.dumps(sheet, indent=1) + "\n"
+        members[text_name] = datasheet_markdown(sheet)
     for fmu in fmus:
         with zipfile.ZipFile(fmu, "a") as z:
             for name, text in members.items():
                 info = zipfile.ZipInfo(name, date_time=(2026, 1, 1, 0, 0, 0))
                 info.external_attr = 0o644 << 16
                 z.writestr(info, text, zipfile.ZIP_DEFLATED)
-    return sheet
+    return sheets

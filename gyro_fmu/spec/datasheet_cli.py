@@ -22,6 +22,16 @@ def _parameter_names() -> tuple[str, ...]:
     return tuple(v.name for v in SENSOR.variables if v.is_parameter)
 
 
+def _preset(name: str) -> str:
+    """A preset's name, checked when the option is used (the parser imports nothing)."""
+    from ..sensor.presets import SENSOR_PRESETS
+
+    if name not in SENSOR_PRESETS:
+        raise argparse.ArgumentTypeError(f"{name!r} is no preset; known: "
+                                         f"{', '.join(SENSOR_PRESETS)}")
+    return name
+
+
 def _seeds(text: str) -> tuple[int, ...]:
     try:
         seeds = tuple(options.seed(v) for v in text.split(",") if v.strip())
@@ -96,17 +106,18 @@ def _cmd_datasheet(args: argparse.Namespace) -> int:
         public,
         read_fmu_datasheet,
     )
+    from ..sensor.presets import SENSOR_PRESETS
 
     fmu = Path(args.fmu) if args.fmu else prebuilt_fmu("GyroSensor")
-    settings = dict(args.set or [])
+    settings = {**SENSOR_PRESETS[args.preset], **dict(args.set or [])}
     out = Path(args.out or "runs/datasheet")
     if args.check:
-        reference = read_fmu_datasheet(fmu)
+        reference = read_fmu_datasheet(fmu, args.preset)
         if settings != reference.get("settings", {}):
             raise GyroFmuError(
-                f"--check holds a measurement against {fmu.name}'s own datasheet, measured "
-                f"at its settings {reference.get('settings', {})}; --set {settings} differs: "
-                "drop --set, or measure without --check")
+                f"--check holds a measurement against {fmu.name}'s own datasheet of preset "
+                f"{args.preset!r}, measured at its settings; --set {dict(args.set or [])} "
+                "changes them: drop --set, or measure without --check")
     seeds = args.seeds or (CHECK_SEEDS if args.check else SEEDS)
     print(f"measuring {fmu.name} with seeds {list(seeds)} ...", flush=True)
     sheet = measure_datasheet(fmu, settings, seeds)
@@ -120,7 +131,7 @@ def _cmd_datasheet(args: argparse.Namespace) -> int:
         for p in problems:
             print(f"FAIL {p}")
         print(f"{'FAIL' if problems else 'PASS'}: {len(reference['figures'])} figures of "
-              f"{fmu.name}'s datasheet against seeds {list(seeds)}")
+              f"{fmu.name}'s datasheet ({args.preset}) against seeds {list(seeds)}")
         return 1 if problems else 0
     return 0
 
@@ -135,6 +146,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "and run-to-run spread; docs/datasheet.md. --check holds the FMU's own datasheet "
         "against other seeds (exit 1 on a figure outside its prediction interval).")
     d.add_argument("--fmu", help="GyroSensor FMU (default: the package's, FMI 2.0)")
+    d.add_argument("--preset", type=_preset, default="consumer",
+                   help="a realistic gyro: consumer (the FMU's defaults), high-q, low-cost "
+                        "(gyro_fmu.sensor.presets); --set changes it further")
     d.add_argument("--set", action="append", metavar="NAME=VALUE",
                    type=options.assignment(_parameter_names, "bandwidth=50",
                                            "a GyroSensor parameter"),
