@@ -1,5 +1,5 @@
 """Gyros that are not presets, as GyroSensor settings: for checking the sensor on the
-space of gyros a user may bring (tests/test_sensor.py, benchmarks/sensor_gyros.py).
+space of gyros a user may bring (tests/test_sensor.py) and its presets (presets.py).
 
 A random gyro: drive mode 2-8 kHz, sense mode split 1-25 % above or below it, cross
 stiffness up to 15 % of sqrt(kxx kyy), Q 300-1e4, cross damping up to 30 % of the

@@ -1,0 +1,98 @@
+"""GyroSensor.fmu's cost: CPU seconds per simulated second at a 1 ms host step, per preset
+and per rate model, and the instructions per internal step under callgrind (repeatable
+under load, where CPU time is not).
+
+    python benchmarks/sensor_cost.py [--seconds 2] [--repeat 3] [--callgrind]
+
+The FMU (FMI 2.0, the package's) stepped by fmpy's FMU2Slave, one setReal and one doStep
+per 1 ms host step, a 1 rad/s step at 50 ms; thread CPU time over the run, min and
+median of the repeats. Target (issue "The gyroscope as a sensor"): <= 1.0 at the defaults;
+the issue on the chain's speed aims at 0.25.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+from fmpy.simulation import apply_start_values
+
+from gyro_fmu.cosim.instances import LogCollector, fmi2_callbacks
+from gyro_fmu.fmu.build import prebuilt_fmu
+from gyro_fmu.sensor.presets import SENSOR_PRESETS
+
+H = 1e-3
+
+
+def cpu_per_second(folder: str, start: dict, seconds: float) -> float:
+    md = read_model_description(folder)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier="GyroSensor",
+                    instanceName="cost")
+    log = LogCollector()  # the observer's warnings (a constant rate model at a step) kept
+    callbacks = fmi2_callbacks(log)
+    fmu.instantiate(callbacks=callbacks)
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    apply_start_values(fmu, md, start)
+    fmu.exitInitializationMode()
+    t, c = 0.0, time.thread_time()
+    for k in range(round(seconds / H)):
+        fmu.setReal([vr["Omega_z"]], [1.0 if k * H >= 0.05 else 0.0])
+        fmu.doStep(t, H)
+        t = (k + 1) * H
+    cpu = time.thread_time() - c
+    fmu.terminate()
+    fmu.freeInstance()
+    return cpu / seconds
+
+
+def instructions_per_step(folder: str) -> float:
+    """callgrind's count of the FMU binary's instructions over 0.03 s (20 us internal steps
+    at the defaults), per internal step."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "cg.out"
+        code = (f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); "
+                "from sensor_cost import cpu_per_second; "
+                f"cpu_per_second({str(folder)!r}, {{}}, 0.03)")
+        subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}",
+                        sys.executable, "-c", code], check=True, capture_output=True)
+        text = subprocess.run(["callgrind_annotate", str(out)], check=True,
+                              capture_output=True, text=True).stdout
+    total = sum(int(line.split()[0].replace(",", "")) for line in text.splitlines()
+                if "GyroSensor.so" in line and line.strip()[:1].isdigit())
+    return total / (0.03 / 20e-6)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=2.0)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--callgrind", action="store_true", help="also count instructions")
+    args = ap.parse_args()
+    folder = str(extract(str(prebuilt_fmu("GyroSensor"))))
+    try:
+        cases = {f"preset {name}": dict(s) for name, s in SENSOR_PRESETS.items()}
+        cases.update({f"consumer, rate_model {m}": {"rate_model": m} for m in (1, 2)})
+        print(f"GyroSensor.fmu, {args.seconds:g} s at a {H * 1e3:g} ms host step: CPU s per "
+              "simulated s (min / median of", args.repeat, "runs)")
+        for name, start in cases.items():
+            runs = [cpu_per_second(folder, start, args.seconds) for _ in range(args.repeat)]
+            print(f"  {name:28s} {min(runs):.3f} / {statistics.median(runs):.3f}")
+        if args.callgrind:
+            print(f"  instructions per internal step (defaults, callgrind): "
+                  f"{instructions_per_step(folder):,.0f}")
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
