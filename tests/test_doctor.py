@@ -11,8 +11,8 @@ import pytest
 from gyro_fmu.doctor import environment as env
 from gyro_fmu.doctor import host
 from gyro_fmu.doctor import report as doc
-from gyro_fmu.fmu import build
-from gyro_fmu.fmu.build import load_slave
+from gyro_fmu.fmu import build, slaves
+from gyro_fmu.fmu.slaves import load_slave
 from gyro_fmu.model.parameters import DEFAULT_PRESET, PRESETS
 from gyro_fmu.model.plant import GyroPlantModel
 
@@ -93,7 +93,7 @@ def test_the_check_plan_is_the_slaves_and_without_its_source_every_output(
     observer = host.unpack_fmu(models_dir / "GyroObserver.fmu", tmp_path / "observer")
     assert load_slave("GyroObserver").DOCTOR_CHECK is None
     assert host.check_plan(observer) == ({}, observer.outputs) and len(observer.outputs) == 25
-    monkeypatch.setattr(build, "source_dir", lambda: None)
+    monkeypatch.setattr(slaves, "source_dir", lambda: None)
     assert host.check_plan(info) == ({}, ("x", "vx", "y", "vy", "ax", "ay"))
     compiler = env.find_compiler()
     if not sys.platform.startswith("linux") or compiler is None:

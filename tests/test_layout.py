@@ -130,3 +130,43 @@ def test_nothing_cites_a_file_outside_the_repository():
                                                  *(ROOT / "benchmarks").glob("*.py")]
              if "FIELD-NOTES" in p.read_text(encoding="utf-8") and p != Path(__file__)]
     assert not cited
+
+
+def _module_imports(path: Path) -> set[str]:
+    """The modules of the same folder that `path` imports at run time (at the top or inside
+    a function; imports under `if TYPE_CHECKING:` are annotations, not arrows)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    typing_only = {id(n) for node in ast.walk(tree) if isinstance(node, ast.If)
+                   and ast.unparse(node.test).endswith("TYPE_CHECKING")
+                   for n in ast.walk(node)}
+    siblings = {p.stem for p in path.parent.glob("*.py")} - {"__init__", path.stem}
+    found = set()
+    for node in ast.walk(tree):
+        if id(node) in typing_only or not isinstance(node, ast.ImportFrom) or node.level != 1:
+            continue
+        if node.module in siblings:
+            found.add(node.module)
+        elif node.module is None:
+            found |= {a.name for a in node.names if a.name in siblings}
+    return found
+
+
+def test_no_import_circle_inside_a_folder():
+    """Within a folder the modules import one way, too: no two import each other, at the
+    top or inside a function (issue 47 found five such circles)."""
+    circles = []
+    for folder in {p.parent for p in _modules() if p.parent.name != "tests"}:
+        arrows = {p.stem: _module_imports(p) for p in folder.glob("*.py")}
+        circles += [f"{folder.name}/{a}.py <-> {b}.py" for a, deps in arrows.items()
+                    for b in deps if a < b and a in arrows.get(b, ())]
+    assert not circles, circles
+
+
+def test_the_check_sees_a_circle(tmp_path):
+    (tmp_path / "a.py").write_text("from .b import x\n")
+    (tmp_path / "b.py").write_text("def f():\n    from .a import y\n")
+    (tmp_path / "c.py").write_text("from typing import TYPE_CHECKING\n"
+                                   "if TYPE_CHECKING:\n    from .a import z\n")
+    assert _module_imports(tmp_path / "a.py") == {"b"}
+    assert _module_imports(tmp_path / "b.py") == {"a"}
+    assert _module_imports(tmp_path / "c.py") == set()

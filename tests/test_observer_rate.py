@@ -15,8 +15,7 @@ import math
 import numpy as np
 import pytest
 
-from gyro_fmu.estimation import observer_rate as rate
-from gyro_fmu.estimation.observer import GyroStateObserver, ObserverTuning
+from gyro_fmu.estimation.observer import GyroStateObserver, ObserverTuning, rate_models
 from gyro_fmu.model.parameters import GyroParameters, preset
 from gyro_fmu.model.plant import GyroPlantModel
 from gyro_fmu.model.rate import RateKind, RateProfile
@@ -226,7 +225,7 @@ def test_the_rate_processes_and_their_switching():
     then rough at 3, 10 and 100 times its intensity); rows of Pi sum to 1; the mean time
     in a model is rate_dwell."""
     tun = ObserverTuning()
-    Fr, Qr, Pi = rate.rate_models(tun, H)
+    Fr, Qr, Pi = rate_models(tun, H)
     assert Fr.shape == Qr.shape == (7, 3, 3)
     for j, grade in zip((4, 5, 6), (3.0, 10.0, 100.0), strict=True):
         np.testing.assert_array_equal(Fr[j], np.diag([1.0, 0.0, 0.0]))

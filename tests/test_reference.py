@@ -68,16 +68,16 @@ def test_each_slave_declares_its_reference_inputs_and_is_loaded_under_a_private_
     inside an FMU (that name in sys.modules would shadow the FMU's own slave)."""
     import sys
 
-    from gyro_fmu.fmu import build
+    from gyro_fmu.fmu import build, slaves
     from gyro_fmu.fmu.reference import reference_inputs
 
     assert sorted(build.PYTHONFMU_NAMES) == sorted(
-        p.stem for p in build.source_dir().glob("[!_]*.py"))
-    build._load_slave_file.cache_clear()
+        p.stem for p in slaves.source_dir().glob("[!_]*.py"))
+    slaves._load_slave_file.cache_clear()
     for name in build.PYTHONFMU_NAMES:
         bare = sys.modules.get(name)  # an FMU run in this process may have imported it
-        slave = build.load_slave(name)
-        assert slave.__name__ == name and slave.__module__ == build.SLAVE_MODULE_PREFIX + name
+        slave = slaves.load_slave(name)
+        assert slave.__name__ == name and slave.__module__ == slaves.SLAVE_MODULE_PREFIX + name
         assert sys.modules.get(name) is bare
         assert callable(slave.reference_inputs) and hasattr(slave, "DOCTOR_CHECK")
     table = reference_inputs("GyroPlant", 1e-4, 5e-6)

@@ -400,3 +400,17 @@ class GyroStateObserver:
 
     def __setstate__(self, state: dict) -> None:
         self.set_state(state)
+
+
+def rate_models(tuning, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(Fr, Qr, Pi): each model's rate-block transition and process noise over h (M x r x
+    r) and the model transition probabilities Pi[i, j] = P(model j at t + h | i at t), as
+    the core builds them (gyro_observer_set_step; the guess only sets the scaling)."""
+    from ..model.parameters import DEFAULT_PRESET, PRESETS
+
+    obs = GyroStateObserver(PRESETS[DEFAULT_PRESET], 0.0, 1, tuning)
+    obs._lib.gyro_observer_set_step(obs._ref, float(h))
+    c, M, r = obs._c, len(rate.model_names(tuning)), rate.rate_block_size(tuning)
+    Fr = np.ctypeslib.as_array(c.Fr)[:M, :r, :r].copy()
+    Qr = np.ctypeslib.as_array(c.Qr)[:M, :r, :r].copy()
+    return Fr, Qr, np.ctypeslib.as_array(c.Pi)[:M, :M].copy()

@@ -35,8 +35,6 @@ from __future__ import annotations
 
 from enum import IntEnum
 
-import numpy as np
-
 
 class RateModel(IntEnum):
     """ObserverTuning.rate_model (the FMU's Integer-valued parameter)."""
@@ -69,18 +67,3 @@ def model_names(tuning) -> tuple[str, ...]:
 
         return RATE_KINDS + tuple(f"rough x{g:g}" for g in rough_grades())
     return (kind.name,)
-
-
-def rate_models(tuning, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(Fr, Qr, Pi): each model's rate-block transition and process noise over h (M x r x
-    r) and the model transition probabilities Pi[i, j] = P(model j at t + h | i at t), as
-    the core builds them (gyro_observer_set_step; the guess only sets the scaling)."""
-    from ..model.parameters import DEFAULT_PRESET, PRESETS
-    from .observer import GyroStateObserver
-
-    obs = GyroStateObserver(PRESETS[DEFAULT_PRESET], 0.0, 1, tuning)
-    obs._lib.gyro_observer_set_step(obs._ref, float(h))
-    c, M, r = obs._c, len(model_names(tuning)), rate_block_size(tuning)
-    Fr = np.ctypeslib.as_array(c.Fr)[:M, :r, :r].copy()
-    Qr = np.ctypeslib.as_array(c.Qr)[:M, :r, :r].copy()
-    return Fr, Qr, np.ctypeslib.as_array(c.Pi)[:M, :M].copy()

@@ -12,44 +12,8 @@ from pathlib import Path
 from .. import options
 from ..fmu.build import MODELS_DIR
 from ..model.parameters import PARAMETER_NAMES, PRESETS, ParameterError
-from ..model.rate import RateProfile
-from .scenario import SCENARIOS, Scenario, scenario
-
-#: s, each gyro's run of a sweep when --stop-time is not given (a run's own default is
-#: longer)
-SWEEP_STOP_TIME = 0.08
-
-
-def scenario_from_args(args: argparse.Namespace) -> Scenario:
-    base = scenario(args.scenario)
-    changes: dict[str, object] = {}
-    if args.preset is not None:
-        changes["preset"] = args.preset
-    if args.set:
-        changes["overrides"] = {**base.overrides, **dict(args.set)}
-    if args.rate is not None:
-        try:
-            changes["rate"] = RateProfile.parse(args.rate)
-        except ValueError as exc:
-            raise ParameterError(str(exc)) from None
-    if args.drive is not None:
-        from ..model.drive import TwoToneDrive
-
-        values = dict(args.drive)
-        known = [f.name for f in fields(TwoToneDrive)]
-        unknown = sorted(set(values) - set(known))
-        if unknown:
-            raise ParameterError(f"unknown --drive name(s) {unknown}: the names are {known}")
-        changes["drive"] = replace(base.the_drive, **values)
-    for name in ("stop_time", "step", "noise", "seed", "measured_pair", "Omega_z_0"):
-        value = getattr(args, name)
-        if value is not None:
-            changes[name] = value
-    if args.initial:
-        changes["initial"] = dict(args.initial)
-    if args.tuning:
-        changes["tuning"] = dict(args.tuning)
-    return base.with_(**changes)
+from .scenario import SCENARIOS, Scenario
+from .scenario_args import SWEEP_STOP_TIME, scenario_from_args
 
 
 def _ensure_models(models: Path) -> None:
@@ -128,7 +92,6 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 
 def _cmd_observability(args: argparse.Namespace) -> int:
-    from dataclasses import replace
 
     from ..estimation.observability import observability_report
 

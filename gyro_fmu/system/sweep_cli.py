@@ -11,7 +11,7 @@ from .. import options
 from ..fmu.build import MODELS_DIR
 from ..model.parameters import ParameterError
 from ..outputs import holds_out_folder
-from .cli import SWEEP_STOP_TIME, scenario_from_args
+from .scenario_args import SWEEP_STOP_TIME, scenario_from_args
 
 
 def _print_bound(b: dict | None) -> None:
