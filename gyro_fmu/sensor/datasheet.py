@@ -327,6 +327,14 @@ def public(datasheet: dict) -> dict:
     return {k: v for k, v in datasheet.items() if k != "curves"}
 
 
+def figure_text(figure: dict) -> tuple[str, str]:
+    """A figure's value ("<= " before an upper bound) and uncertainty ("" for a declared
+    one) as a datasheet prints them."""
+    u = figure.get("uncertainty")
+    bound = "<= " if figure.get("bound") == "upper" else ""
+    return bound + format(figure["value"], ".4g"), "" if u is None else format(u, ".2g")
+
+
 def datasheet_markdown(sheet: dict) -> str:
     """The datasheet in human form: a table of the figures, then the protocol."""
     p = sheet["protocol"]
@@ -336,10 +344,8 @@ def datasheet_markdown(sheet: dict) -> str:
              f"{sheet['settings'] or 'the FMU defaults'}.", "",
              "| figure | value | +- (one seed) | unit | how |", "| --- | --- | --- | --- | --- |"]
     for name, f in sheet["figures"].items():
-        u = f.get("uncertainty")
-        value = ("<= " if f.get("bound") == "upper" else "") + format(f["value"], ".4g")
-        lines.append(f"| {name} | {value} | {'' if u is None else format(u, '.2g')} | "
-                     f"{f['unit']} | {f['how']} |")
+        value, u = figure_text(f)
+        lines.append(f"| {name} | {value} | {u} | {f['unit']} | {f['how']} |")
     lines += ["", f"Protocol: warm-up {p['warm_up_s']:g} s at rate 0, record {p['record_s']:g} "
               f"s at a {p['record_step_s']:g} s host step; step and sines at {p['fast_step_s']:g} "
               f"s; seeds {p['seeds']}; uncertainty: {p['uncertainty']}. Check it: "

@@ -46,12 +46,12 @@ def _seeds(text: str) -> tuple[int, ...]:
 
 def format_datasheet(sheet: dict) -> str:
     """The figures as a table: name, value, uncertainty, unit."""
+    from ..sensor.datasheet import figure_text
+
     lines = [f"{'figure':<20} {'value':>12} {'+-':>10}  unit"]
     for name, f in sheet["figures"].items():
-        u = f.get("uncertainty")
-        bound = "<= " if f.get("bound") == "upper" else ""
-        lines.append(f"{name:<20} {bound + format(f['value'], '.4g'):>12} "
-                     f"{'' if u is None else format(u, '.2g'):>10}  {f['unit']}")
+        value, u = figure_text(f)
+        lines.append(f"{name:<20} {value:>12} {u:>10}  {f['unit']}")
     return "\n".join(lines)
 
 
