@@ -113,3 +113,21 @@ def test_sine_gain_and_bandwidth_of_a_known_filter():
         assert points[-1]["gain"] == pytest.approx(abs(g), rel=1e-9)
         assert points[-1]["phase_deg"] == pytest.approx(math.degrees(np.angle(g)), abs=1e-6)
     assert bandwidth_3db(points)["f_3db_hz"] == pytest.approx(fc, rel=0.02)
+
+
+def test_seeds_that_cannot_give_an_uncertainty_and_foreign_fmus_are_refused():
+    """A repeated seed repeats its run (a spread of 0 claimed as the uncertainty), a check
+    with the datasheet's own seeds would pass by construction, an FMU that is not GyroSensor
+    has nothing to measure: each refused by name, before any run."""
+    from gyro_fmu.sensor.datasheet import DatasheetError, measure_datasheet
+
+    fmu = prebuilt_fmu("GyroSensor")
+    with pytest.raises(DatasheetError, match=r"seeds \[3, 3\]: give at least 2 different"):
+        measure_datasheet(fmu, seeds=(3, 3))
+    with pytest.raises(DatasheetError, match=r"has no .*Omega_meas.*GyroSensor"):
+        measure_datasheet(prebuilt_fmu("GyroPlant"))
+    shipped = read_fmu_datasheet(fmu)
+    again = copy.deepcopy(shipped)
+    again["protocol"]["seeds"] = [1, 101]
+    assert check_datasheet(shipped, again) == [
+        "seeds [1] made the datasheet too: check with other seeds"]

@@ -257,10 +257,16 @@ def measure_datasheet(fmu: Path, settings: Mapping[str, float] | None = None,
     deviation of one seed's figure. Raises DatasheetError when a run cannot give one."""
     from fmpy import extract, read_model_description
 
-    if len(seeds) < 2:
-        raise DatasheetError(f"{len(seeds)} seed: give at least 2, the spread is the "
-                             "uncertainty")
+    if len(set(seeds)) < 2 or len(set(seeds)) != len(seeds):
+        raise DatasheetError(f"seeds {list(seeds)}: give at least 2 different ones, each "
+                             "once (their spread is the uncertainty; a repeated seed repeats "
+                             "its run and shrinks it)")
     md = read_model_description(str(fmu))
+    names = {v.name for v in md.modelVariables}
+    missing = sorted({"Omega_z", "Omega_meas", "status", "bandwidth"} - names)
+    if missing:
+        raise DatasheetError(f"{Path(fmu).name} ({md.modelName}) has no {missing}: a "
+                             "datasheet is measured from GyroSensor.fmu")
     starts = {v.name: float(v.start) for v in md.modelVariables
               if v.causality == "parameter" and v.start is not None}
     unknown = sorted(set(settings or {}) - set(starts))
@@ -307,6 +313,9 @@ def check_datasheet(reference: dict, measured: dict,
     (a prediction interval for a mean of M new seeds). Empty when all agree."""
     from scipy.stats import t as student
 
+    shared = sorted(set(reference["protocol"]["seeds"]) & set(measured["protocol"]["seeds"]))
+    if shared:  # the same runs again: agreement would say nothing
+        return [f"seeds {shared} made the datasheet too: check with other seeds"]
     problems = []
     k = len(reference["protocol"]["seeds"])
     m = len(measured["protocol"]["seeds"])
