@@ -300,10 +300,9 @@ def natural_frequencies(params: GyroParameters, Omega_z: float = 0.0) -> list[fl
 
 def heat_map(design: DriveDesign, path: Path, name: str = "Omega_z") -> Path:
     """Heat map of the bound on `name` over (f1, f2), log color, proposal marked."""
-    import matplotlib
+    from ..extras import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     from matplotlib.colors import LogNorm
 
     from ..model.measurement import UNKNOWN_UNITS

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import GyroFmuError
+from ..extras import require
 from .shipping import shipped_package_files
 from .slaves import source_dir
 
@@ -42,12 +43,7 @@ MODELS_DIR = Path("models")
 def _pythonfmu_builder() -> Any:
     """pythonfmu's FmuBuilder, imported when the pythonfmu flavour is built: copying the
     prebuilt native FMUs (every `gyro-fmu run`) loads no pythonfmu."""
-    try:
-        from pythonfmu.builder import FmuBuilder
-    except ImportError as exc:
-        raise GyroFmuError(f"the pythonfmu flavour needs pythonfmu ({exc}): pip install "
-                           "pythonfmu, or use the native FMUs (the default)") from None
-    return FmuBuilder
+    return require("pythonfmu.builder", "pythonfmu").FmuBuilder
 
 
 #: Capability flags, each true in fact (tests/test_fmu_quality.py holds them).

@@ -9,12 +9,14 @@ summary or a figure of a run of any length needs memory for one chunk only.
 from __future__ import annotations
 
 import json
+import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import GyroFmuError
+from ..extras import has, require
 from .writer import METADATA_KEY, READ_ROWS
 
 
@@ -23,7 +25,7 @@ class ResultReadError(GyroFmuError):
 
 
 def _parquet(path: Path):
-    import pyarrow.parquet as pq
+    pq = require("pyarrow.parquet", "parquet", f"reading {path}")
 
     try:
         return pq.ParquetFile(path)
@@ -79,7 +81,10 @@ def iter_columns(path: Path, names: Sequence[str], rows: int = READ_ROWS
         except OSError as exc:
             raise ResultReadError(f"{path} is damaged ({exc}): rerun the scenario") from None
         return
-    yield from _csv_chunks(path, known, names, rows)
+    if has("pyarrow"):
+        yield from _csv_chunks(path, known, names, rows)
+    else:
+        yield from _csv_chunks_numpy(path, known, names, rows)
 
 
 def _csv_chunks(path: Path, known: tuple[str, ...], names: Sequence[str], rows: int
@@ -103,6 +108,28 @@ def _csv_chunks(path: Path, known: tuple[str, ...], names: Sequence[str], rows: 
                 part = batch.slice(start, rows)
                 yield {n: to_numpy(part.column(n)) for n in names}
     except (ValueError, OSError) as exc:  # ArrowInvalid is a ValueError
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise ResultReadError(f"{path} is damaged ({first}): rerun the scenario") from None
+
+
+def _csv_chunks_numpy(path: Path, known: tuple[str, ...], names: Sequence[str], rows: int
+                      ) -> Iterator[dict[str, np.ndarray]]:
+    """The CSV through numpy.loadtxt, without the parquet extra: 1.7x Arrow's time (0.23
+    s against 0.14 s for the default run's 20,001 rows)."""
+    index = [known.index(n) for n in names]
+    try:
+        with path.open() as f:
+            f.readline()
+            while True:
+                with warnings.catch_warnings():  # "input contained no data": no rows
+                    warnings.simplefilter("ignore", UserWarning)
+                    block = np.loadtxt(f, delimiter=",", usecols=index, max_rows=rows,
+                                       ndmin=2, dtype=np.float64)
+                if len(block):
+                    yield {n: block[:, j] for j, n in enumerate(names)}
+                if len(block) < rows:
+                    return
+    except ValueError as exc:
         first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise ResultReadError(f"{path} is damaged ({first}): rerun the scenario") from None
 

@@ -20,10 +20,9 @@ def sideband_figure(result: SelfCalResult, path: Path) -> Path:
     - rebalance drive / oscillator drive, fitted = -H_sp / H_ss, the drive that nulls the
       rebalanced pick-off: the channel that carries cross damping, quadrature and rate.
       (The rebalanced pick-off itself is nulled by the loop down to its noise.)"""
-    import matplotlib
+    from ..extras import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fit = result.fit
     fig, axes = plt.subplots(2, 2, figsize=(12, 7), sharex=True)

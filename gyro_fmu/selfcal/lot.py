@@ -250,10 +250,9 @@ def write_lot(res: LotResult, out: Path, figures: bool = True) -> list[Path]:
 
 
 def histograms(res: LotResult, path: Path) -> Path:
-    import matplotlib
+    from ..extras import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     cal = [r for r in res.rows if r.get("d_bias") is not None]
     fig, ax = plt.subplots(1, 4, figsize=(16, 3.8))

@@ -131,10 +131,9 @@ def write_curve(points: list[CurvePoint], out: object, summary: dict,
 def curve_figure(points: list[CurvePoint], path: object) -> object:
     """Bias and scale factor against temperature, the calibrations (1-sigma bars) on
     the rate table's curve, and their differences against the targets."""
-    import matplotlib
+    from ..extras import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     import numpy as np
 
     from ..outputs import save_figure

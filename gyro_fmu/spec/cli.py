@@ -124,10 +124,9 @@ def _tau_range(a: dict) -> str:
 
 def spec_figure(s: dict, path: Path) -> Path:
     """Allan deviation with its slope lines, rate response, SF residuals, start-up."""
-    import matplotlib
+    from ..extras import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     import numpy as np
 
     a, r, f = s["allan"], s["rate_response"], s["scale_factor"]

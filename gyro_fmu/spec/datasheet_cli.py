@@ -57,10 +57,9 @@ def format_datasheet(sheet: dict) -> str:
 
 def draw(sheet: dict, path: Path) -> Path:
     """Allan deviation, step response and rate response of every seed, in one figure."""
-    import matplotlib
+    from ..extras import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     import numpy as np
 
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.2))

@@ -20,6 +20,7 @@ import time
 from collections.abc import Callable, Sequence
 
 from ..errors import GyroFmuError
+from ..extras import require
 from .progress import progress_bar
 
 
@@ -34,6 +35,7 @@ def run_tasks(
     is_failed: Callable[[dict], bool] = lambda row: row.get("status") != "ok",
 ) -> tuple[list[dict], float, int, str | None]:
     """(rows in task order, wall time s, workers, interrupted message or None)."""
+    require("distributed", "lots")
     from dask.distributed import Client, as_completed
 
     cluster = None

@@ -10,6 +10,7 @@ from dataclasses import fields, replace
 from pathlib import Path
 
 from .. import options
+from ..extras import has, install_line
 from ..fmu.build import MODELS_DIR
 from ..model.parameters import PARAMETER_NAMES, PRESETS, ParameterError
 from .scenario import SCENARIOS, Scenario
@@ -40,14 +41,19 @@ def _cmd_run(args: argparse.Namespace) -> int:
     replaced = replaced_run(out, sc, args.force)
     if set(fmus) != {"drive", "rate", "plant", "observer"}:  # ours for the others
         _ensure_models(Path(args.models))
-    summary = run_and_report(sc, out, Path(args.models), fmus, figures=not args.no_figures)
+    draw = not args.no_figures and has("matplotlib")
+    summary = run_and_report(sc, out, Path(args.models), fmus, figures=draw)
     for message in summary["warnings"]:
         print(f"warning: {message}", file=sys.stderr)
     _print_summary(summary)
-    print(f"wrote {out}/results.csv, results.parquet, summary.json" + (
-        "" if args.no_figures else
-          ", fig3_states.png, fig4_estimates.png") + (f" (replaced a run with {replaced})"
-                                                       if replaced else ""))
+    record = summary["results"]
+    written = [record["file"]] + ([record["binary"]["file"]] if "binary" in record else [])
+    print(f"wrote {out}/{', '.join(written)}, summary.json" + (
+        ", fig3_states.png, fig4_estimates.png" if draw else "") + (
+        f" (replaced a run with {replaced})" if replaced else ""))
+    if not args.no_figures and not draw:
+        print(f"no figures: they need matplotlib, which is not installed here: "
+              f"{install_line('figures')} (or --no-figures)", file=sys.stderr)
     return 0 if summary["verdict"]["passed"] else 1
 
 

@@ -40,6 +40,7 @@ from xml.etree import ElementTree as ET
 from fmpy import read_model_description
 
 from ..cosim.master import CoSimulationError
+from ..extras import require
 from ..fmu.build import MODELS_DIR
 from ..model.drive import TwoToneDrive
 from .scenario import CONNECTIONS, INSTANCE_FMUS, Scenario, fmu_system
@@ -123,6 +124,7 @@ def build_container(
         raise ContainerError(f"step={step:g} s: {problem}")
     names = exposed_names(models_dir)
     variables = _variables(models_dir)
+    require("fmu_manipulation_toolbox", "container")
     from fmu_manipulation_toolbox.assembly import AssemblyNode
 
     with tempfile.TemporaryDirectory(prefix="gyro_container_") as tmp:

@@ -32,7 +32,7 @@ from .ssp import PARAMETER_SET, SSPError, package_settings, single_threaded_blas
 def _ecospy_folder() -> Path:
     spec = find_spec("ecospy")
     if spec is None or spec.origin is None:
-        raise SSPError("ecospy is not installed: pip install ecospy==0.7.2 tbb")
+        raise SSPError("ecospy is not installed: pip install 'gyro_fmu[ecos]'")
     return Path(spec.origin).parent
 
 

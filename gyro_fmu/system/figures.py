@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..extras import pyplot
 from ..model.measurement import UNKNOWNS
 from ..model.parameters import PARAMETER_UNITS, GyroParameters
 from ..outputs import save_figure
@@ -108,24 +109,13 @@ class FigureData:
         return np.sqrt(table[:, 0] * table[:, 1]), table[:, 2:]
 
 
-def _pyplot():
-    """matplotlib's pyplot on the Agg backend, imported when a figure is drawn (0.24 s a
-    process that draws none, such as `gyro-fmu run --no-figures`, no longer pays)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def fig3_states(data: FigureData, path: Path) -> Path:
     """Fig. 3A-3E: drive ux, and plant (measured) vs observer x, y, vx, vy.
 
     Left column: the first `window` seconds, where the observer locks on;
     right column: the last `window` seconds, against the time to the run's end.
     """
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(len(_FIG3_ROWS), 2, figsize=(11, 11), sharex="col")
     for j, late in enumerate((False, True)):
         rows = data.window_rows(late)
@@ -162,7 +152,7 @@ def fig4_estimates(data: FigureData, path: Path) -> Path:
     t = t * 1e3
     from matplotlib.ticker import NullLocator
 
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(4, 2, figsize=(11, 11), sharex=True)
     for i, (ax, name) in enumerate(zip(axes.flat, UNKNOWNS, strict=True)):
         emin, emax, smin, smax = (table[:, 4 * i + j] for j in range(4))

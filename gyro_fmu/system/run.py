@@ -1,8 +1,8 @@
 """The main job: co-simulate a scenario through the FMUs and write results, summary, figures.
 
-The results stream to results.csv and results.parquet as the run goes
-(`gyro_fmu.results.writer`); the summary and the figures are then made by reading the
-Parquet file back in chunks, so memory does not grow with the run's length.
+The results stream to results.csv and results.parquet (with the parquet extra) as the run
+goes (`gyro_fmu.results.writer`); the summary and the figures are then made by reading the
+Parquet file (or the CSV) back in chunks, so memory does not grow with the run's length.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from ..model.plant import MeasurementNoise
 from ..outputs import atomic_write, out_folder
 from ..results.columns import OBSERVED, TRUE_RATE, estimate_column, sigma_column
 from ..results.read import iter_columns
-from ..results.writer import PARQUET, ResultFiles
+from ..results.writer import CSV, PARQUET, ResultFiles
 from ..studies.progress import progress_bar
 from .scenario import Scenario, absolute_noise, fmu_system, observer_tuning
 
@@ -187,7 +187,9 @@ def _run_into(sc: Scenario, out_dir: Path, models_dir: Path, fmus: Mapping[str, 
         for name in ("summary.json", *FIGURES):  # nor an old figure
             (out_dir / name).unlink(missing_ok=True)
         record = files.close()
-    metrics, data = read_back(out_dir / PARQUET, sc.params, figures and interrupted is None)
+    written = [CSV] + ([PARQUET] if "binary" in record else [])
+    metrics, data = read_back(out_dir / written[-1], sc.params,
+                              figures and interrupted is None)
     summary = _summary(sc, metrics.summary(), files.finite, wall,
                        [str(w.message) for w in caught], noise)
     summary["run_id"] = run_id
@@ -197,8 +199,8 @@ def _run_into(sc: Scenario, out_dir: Path, models_dir: Path, fmus: Mapping[str, 
     write_or_rescue(lambda path: path.write_text(json.dumps(summary, indent=2)),
                     out_dir / "summary.json")
     if interrupted is not None:
-        interrupted.args = (f"{interrupted}; wrote what was simulated to "
-                            f"{out_dir / 'results.csv'}, results.parquet and summary.json",)
+        interrupted.args = (f"{interrupted}; wrote what was simulated to {out_dir}: "
+                            f"{', '.join(written)} and summary.json",)
         raise interrupted
     if data is not None:
         make_figures(data, out_dir)

@@ -45,6 +45,7 @@ import numpy as np
 from fmpy import read_model_description
 
 from ..cosim.master import Component, Connection, CoSimulationError, whole_steps
+from ..extras import require
 from ..fmu.build import MODELS_DIR
 from ..outputs import atomic_write
 from ..upstream.libcosim_samples import get_real_samples
@@ -315,7 +316,8 @@ def single_threaded_blas() -> Iterator[None]:
     afterwards.
     """
     import scipy.linalg  # noqa: F401 - load scipy's OpenBLAS so that it is limited too
-    from threadpoolctl import threadpool_limits
+
+    threadpool_limits = require("threadpoolctl", "ssp").threadpool_limits
 
     with threadpool_limits(limits=1, user_api="blas"):
         yield
@@ -353,6 +355,7 @@ def run_ssp_libcosim(
     host process (no LD_PRELOAD). Side effect: sets libcosim's process-wide log
     level to warning (its default prints debug lines to stdout).
     """
+    require("libcosimpy", "ssp", "running an SSP package in libcosim")
     from libcosimpy.CosimEnums import CosimVariableCausality, CosimVariableType
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level

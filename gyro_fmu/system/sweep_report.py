@@ -234,10 +234,9 @@ def write_outputs(res: SweepResult, out_dir: Path, figures: bool = True) -> list
 
 
 def histograms(res: SweepResult, path: Path) -> Path:
-    import matplotlib
+    from ..extras import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     ok = res.ok
     fig, axes = plt.subplots(3, 4, figsize=(14, 9))
