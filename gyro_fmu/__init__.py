@@ -7,8 +7,9 @@ each FMU, which ships this package):
 - ``run_cosimulation``, ``Component``, ``Connection``: the FMI 2.0 co-simulation master;
 - ``preset``, ``GyroParameters``: the gyroscope's parameters;
 - ``GyroStateObserver``, ``ObserverTuning``: the augmented-state observer (eqs. 5-9);
-- ``read_results``: a run's results.parquet or results.csv as a structured array (what
-  fmpy's plotting takes).
+- ``read_results``, ``read_dataframe``, ``read_arrow``: a run's results.parquet or
+  results.csv as a structured array (fmpy's form), a pandas DataFrame or an Arrow table,
+  the last two with each column's unit (``df.attrs["units"]``, field metadata "unit").
 
 Subpackages, lowest first: ``core`` (the C core), ``model`` (physics) and ``cosim``
 (master); ``estimation`` and ``results`` (a run's files); ``fmu`` (FMU builds); ``doctor``;
@@ -36,6 +37,8 @@ _EXPORTS = {
     "GyroStateObserver": "gyro_fmu.estimation.observer",
     "ObserverTuning": "gyro_fmu.estimation.observer",
     "read_results": "gyro_fmu.results.read",
+    "read_dataframe": "gyro_fmu.results.read",
+    "read_arrow": "gyro_fmu.results.read",
 }
 
 __all__ = ["__version__", *_EXPORTS]

@@ -18,6 +18,7 @@ from .errors import GyroFmuError
 EXTRAS: dict[str, tuple[str, str]] = {
     "figures": ("matplotlib", "the PNG figures"),
     "parquet": ("pyarrow", "results.parquet, and results.csv written 4.6x faster"),
+    "pandas": ("pandas", "results as a pandas DataFrame"),
     "lots": ("dask[distributed]", "sweeps and lots on many cores or a cluster"),
     "ssp": ("libcosimpy", "running the SSP packages in libcosim"),
     "container": ("fmu-manipulation-toolbox", "the container FMU (gyro-fmu container)"),

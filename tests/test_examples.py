@@ -79,6 +79,7 @@ def test_read_results(tmp_path: Path) -> None:
         tmp_path)
     out = run([sys.executable, str(EXAMPLES / "read_results.py")], tmp_path)
     assert "2001 rows" in out and "agree on every value: True" in out
+    assert "units: Omega_hat in rad/s, x in m" in out and "units too: True" in out
     assert "['observer.Omega_hat', 'observer.sigma_Omega_z']" in out
     rms = float(re.search(r"last 20 %: (\S+) rad/s", out).group(1))
     assert rms < 1e-3

@@ -87,6 +87,61 @@ def test_pandas_and_fmpys_plotting_read_the_parquet_file(tmp_path):
     assert [trace.name for trace in figure.data] == list(COLUMNS[1:])
 
 
+def test_without_pyarrow_the_csv_holds_the_rows_exactly(tmp_path, monkeypatch):
+    """The core's writer and reader (no parquet extra): Python's repr text, numpy's
+    loadtxt; the awkward rows back bit for bit, by numpy's reader and by Arrow's."""
+    import gyro_fmu.results.read as read
+    import gyro_fmu.results.writer as writer
+
+    rows = _awkward(3000, np.random.default_rng(3))
+    monkeypatch.setattr(writer, "has", lambda module: False)
+    record = _write(tmp_path, rows, [1000, 1, 1999])
+    assert "binary" not in record and not (tmp_path / "results.parquet").exists()
+    from gyro_fmu.outputs import file_digest
+
+    assert record["sha256"] == file_digest(tmp_path / "results.csv")
+    arrow = read_results(tmp_path / "results.csv")
+    monkeypatch.setattr(read, "has", lambda module: False)
+    mine = read_results(tmp_path / "results.csv")
+    for table in (arrow, mine):
+        back = np.column_stack([table[c] for c in COLUMNS])
+        assert np.array_equal(back.view(np.int64), rows.view(np.int64))
+
+
+def test_a_result_and_a_results_file_as_pandas_and_arrow_with_units(tmp_path):
+    """What a pandas or Arrow user gets: the numbers and each column's unit, from a
+    results.parquet, from a results.csv with its summary.json, and from a result in
+    memory (run_cosimulation's)."""
+    pytest.importorskip("pandas")
+    import json
+
+    from gyro_fmu import read_arrow, read_dataframe
+    from gyro_fmu.cosim.system import CoSimulationResult
+
+    rows = _awkward(200, np.random.default_rng(5))
+    record = _write(tmp_path, rows, [200])
+    units = {"time": "s", "plant.x": "m", "observer.Omega_hat": "rad/s"}
+    (tmp_path / "summary.json").write_text(json.dumps({"results": record}))
+    result = CoSimulationResult(COLUMNS, rows, {"plant.x": "m", "observer.Omega_hat": "rad/s"})
+    frames = [read_dataframe(tmp_path / "results.parquet"),
+              read_dataframe(tmp_path / "results.csv"), result.to_pandas()]
+    for frame in frames:
+        assert list(frame.columns) == list(COLUMNS) and frame.attrs["units"] == units
+        assert np.array_equal(frame.to_numpy().view(np.int64), rows.view(np.int64))
+    for table in (read_arrow(tmp_path / "results.parquet"),
+                  read_arrow(tmp_path / "results.csv"), result.to_arrow()):
+        assert table.column_names == list(COLUMNS)
+        assert {f.name: f.metadata[b"unit"].decode() for f in table.schema} == units
+        assert np.array_equal(np.column_stack([table.column(c).to_numpy() for c in COLUMNS]
+                                              ).view(np.int64), rows.view(np.int64))
+    records = result.to_records()
+    assert records.dtype.names == COLUMNS and np.array_equal(
+        records["plant.x"].view(np.int64), rows[:, 1].view(np.int64))
+    # a CSV whose summary describes another file: no units claimed
+    (tmp_path / "other.csv").write_bytes((tmp_path / "results.csv").read_bytes())
+    assert read_dataframe(tmp_path / "other.csv").attrs["units"] == dict.fromkeys(COLUMNS, "")
+
+
 def test_a_failed_run_leaves_no_file_and_a_lost_folder_is_named(tmp_path):
     rows = _awkward(100, np.random.default_rng(2))
     with pytest.raises(RuntimeError), ResultFiles(tmp_path, "b" * 32) as files:

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GyroFmuError
+from ..extras import require
 
 
 class CoSimulationError(GyroFmuError, RuntimeError):
@@ -57,7 +58,9 @@ class Connection:
 
 @dataclass(frozen=True)
 class CoSimulationResult:
-    """Recorded signals: `data[:, j]` is column `columns[j]` ("time" first)."""
+    """Recorded signals: `data[:, j]` is column `columns[j]` ("time" first), `units` each
+    signal's unit. As others hold a result: `to_records()` (fmpy's form), `to_pandas()`,
+    `to_arrow()` (both with each column's unit), `write_csv(path)`."""
 
     columns: tuple[str, ...]
     data: np.ndarray
@@ -68,6 +71,38 @@ class CoSimulationResult:
             return self.data[:, self.columns.index(name)]
         except ValueError:
             raise KeyError(f"no recorded signal {name!r}; recorded: {list(self.columns)}") from None
+
+    @property
+    def column_units(self) -> dict[str, str]:
+        """Every column's unit ("" for a signal declared without one), "time" in s."""
+        return {c: "s" if c == "time" else self.units.get(c, "") for c in self.columns}
+
+    def to_records(self) -> np.ndarray:
+        """A structured array, one field per column ("time" first): fmpy's result form,
+        what fmpy.util.write_csv and plot_result take."""
+        out = np.empty(len(self.data), dtype=[(c, "f8") for c in self.columns])
+        for j, c in enumerate(self.columns):
+            out[c] = self.data[:, j]
+        return out
+
+    def to_pandas(self):
+        """A pandas DataFrame, one column per signal, with df.attrs["units"] the units
+        (pandas keeps attrs through DataFrame.to_parquet and read_parquet)."""
+        pd = require("pandas", "pandas")
+        df = pd.DataFrame(self.data, columns=list(self.columns), copy=True)
+        df.attrs["units"] = self.column_units
+        return df
+
+    def to_arrow(self):
+        """A pyarrow Table, each field's unit in its metadata ({"unit": ...}), as
+        results.parquet keeps them."""
+        pa = require("pyarrow", "parquet")
+        units = self.column_units
+        fields = [pa.field(c, pa.float64(), nullable=False, metadata={"unit": units[c]})
+                  for c in self.columns]
+        return pa.Table.from_arrays([pa.array(np.ascontiguousarray(self.data[:, j]))
+                                     for j in range(len(self.columns))],
+                                    schema=pa.schema(fields))
 
     def write_csv(self, path: Path) -> None:
         header = ",".join(self.columns)

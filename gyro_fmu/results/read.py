@@ -49,12 +49,18 @@ def columns_of(path: Path) -> tuple[str, ...]:
 
 
 def units_of(path: Path) -> dict[str, str]:
-    """The units results.parquet records for its columns (empty for a CSV)."""
+    """Each column's unit: what results.parquet records, or for a results.csv what the
+    summary.json beside it records of that file (empty when there is none)."""
     path = Path(path)
-    if path.suffix != ".parquet":
+    if path.suffix == ".parquet":
+        meta = _parquet(path).schema_arrow.metadata or {}
+        return json.loads(meta.get(METADATA_KEY, b"{}")).get("units", {})
+    try:
+        record = json.loads((path.parent / "summary.json").read_text())["results"]
+    except (OSError, ValueError, KeyError, TypeError):
         return {}
-    meta = _parquet(path).schema_arrow.metadata or {}
-    return json.loads(meta.get(METADATA_KEY, b"{}")).get("units", {})
+    units = record.get("units") if isinstance(record, dict) else None
+    return units if record.get("file") == path.name and isinstance(units, dict) else {}
 
 
 def iter_columns(path: Path, names: Sequence[str], rows: int = READ_ROWS
@@ -136,7 +142,8 @@ def _csv_chunks_numpy(path: Path, known: tuple[str, ...], names: Sequence[str], 
 
 def read_results(path: Path) -> np.ndarray:
     """The whole table as a structured array (fields named as the columns, "time"
-    first): what fmpy's plotting takes, e.g. fmpy.util.plot_result(read_results(p))."""
+    first): fmpy's result form. fmpy.util.plot_result(read_results(p)) draws it with
+    plotly, which fmpy does not install: pip install plotly."""
     path = Path(path)
     names = columns_of(path)
     chunks = list(iter_columns(path, names))
@@ -148,3 +155,32 @@ def read_results(path: Path) -> np.ndarray:
             out[n][row: row + m] = c[n]
         row += m
     return out
+
+
+def read_dataframe(path: Path):
+    """The whole table as a pandas DataFrame, each column's unit in df.attrs["units"]
+    (from results.parquet, or from a results.csv and the summary.json beside it)."""
+    pd = require("pandas", "pandas")
+    path = Path(path)
+    table = read_results(path)
+    df = pd.DataFrame({n: table[n] for n in table.dtype.names})
+    units = units_of(path)
+    df.attrs["units"] = {n: units.get(n, "") for n in table.dtype.names}
+    return df
+
+
+def read_arrow(path: Path):
+    """The whole table as a pyarrow Table, each field's unit in its metadata ("unit"),
+    as results.parquet holds it (the parquet extra)."""
+    path = Path(path)
+    if path.suffix == ".parquet":
+        return _parquet(path).read()
+    pa = require("pyarrow", "parquet")
+    from .arrow import to_arrow
+
+    table, units = read_results(path), units_of(path)
+    return pa.Table.from_arrays(
+        [to_arrow(table[n]) for n in table.dtype.names],
+        schema=pa.schema([pa.field(n, pa.float64(), nullable=False,
+                                   metadata={"unit": units.get(n, "")})
+                          for n in table.dtype.names]))

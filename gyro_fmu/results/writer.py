@@ -181,8 +181,9 @@ class ResultFiles:
         except OSError as exc:
             self.discard()
             raise self._error(exc) from exc
+        # the units for readers of the CSV, whose header (fmpy's convention) has none
         record = {"file": CSV, "run_id": self.run_id, "rows": self.rows,
-                  "sha256": self._sha.hexdigest()}
+                  "sha256": self._sha.hexdigest(), "units": self.units}
         if self.parquet:
             from ..outputs import file_digest
 
