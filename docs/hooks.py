@@ -4,8 +4,11 @@
   parser itself (gyro_fmu.cli.parser);
 - `<!-- generated: variables MODEL -->` becomes MODEL's variable table from the same
   declarations that generate its modelDescription.xml (gyro_fmu.fmu.native);
-- figures: `images/platform.png` is drawn by running `examples/stabilized_platform.py`
-  on the package's FMUs (3 s), so the page shows what the example prints today.
+- figures, drawn by the commands a user runs, so each page shows what they give today
+  (FIGURES: about 25 s): `images/platform.png` by `examples/stabilized_platform.py` on
+  the package's FMUs; the default run's three figures (`gyro-fmu run`); a
+  self-calibration's (`gyro-fmu selfcal`); GyroSensor's datasheet figure measured
+  again (`gyro-fmu datasheet --check`: two seeds other than the datasheet's).
 """
 
 from __future__ import annotations
@@ -58,22 +61,43 @@ def on_page_markdown(markdown: str, **kwargs: object) -> str:
                      markdown)
 
 
-def _platform_figure() -> bytes:
+def _platform_figure(tmp: Path) -> dict[str, Path]:
     from gyro_fmu.fmu.build import prebuilt_fmu
 
-    root = Path(__file__).resolve().parents[1]
-    with tempfile.TemporaryDirectory(prefix="gyro_fmu-docs-") as tmp:
-        fmus = Path(tmp)
-        for name in ("StabilizedPlatform", "GyroSensor"):
-            (fmus / f"{name}.fmu").write_bytes(prebuilt_fmu(name).read_bytes())
-        subprocess.run([sys.executable, str(root / "examples" / "stabilized_platform.py"),
-                        "--fmus", str(fmus), "--stop-time", "2", "--figure",
-                        str(fmus / "platform.png")], check=True, capture_output=True)
-        return (fmus / "platform.png").read_bytes()
+    for name in ("StabilizedPlatform", "GyroSensor"):
+        (tmp / f"{name}.fmu").write_bytes(prebuilt_fmu(name).read_bytes())
+    subprocess.run([sys.executable, str(ROOT / "examples" / "stabilized_platform.py"),
+                    "--fmus", str(tmp), "--stop-time", "2", "--figure",
+                    str(tmp / "platform.png")], check=True, capture_output=True)
+    return {"platform.png": tmp / "platform.png"}
+
+
+def _command_figures(tmp: Path) -> dict[str, Path]:
+    def gyro_fmu(*args: str) -> None:
+        subprocess.run([sys.executable, "-m", "gyro_fmu.cli", *args], cwd=tmp, check=True,
+                       capture_output=True)
+
+    gyro_fmu("run", "--out", "run")
+    gyro_fmu("selfcal", "--out", "selfcal")
+    gyro_fmu("datasheet", "--check", "--out", "datasheet")
+    return {"run-fig3.png": tmp / "run" / "fig3_states.png",
+            "run-fig4.png": tmp / "run" / "fig4_estimates.png",
+            "run-rate.png": tmp / "run" / "rate_estimate.png",
+            "selfcal-sidebands.png": tmp / "selfcal" / "sidebands.png",
+            "datasheet.png": tmp / "datasheet" / "datasheet.png"}
+
+
+ROOT = Path(__file__).resolve().parents[1]
+#: What draws each page's figures (into a fresh folder each).
+FIGURES = (_platform_figure, _command_figures)
 
 
 def on_files(files, config, **kwargs):
     from mkdocs.structure.files import File
 
-    files.append(File.generated(config, "images/platform.png", content=_platform_figure()))
+    for draw in FIGURES:
+        with tempfile.TemporaryDirectory(prefix="gyro_fmu-docs-") as tmp:
+            for name, path in draw(Path(tmp)).items():
+                files.append(File.generated(config, f"images/{name}",
+                                            content=path.read_bytes()))
     return files

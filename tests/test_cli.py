@@ -27,6 +27,7 @@ def test_run_writes_results_summary_and_figures(models_dir, tmp_path, capsys):
     assert header[0] == "time" and "observer.Omega_hat" in header and "plant.x" in header
     assert (out / "fig3_states.png").stat().st_size > 10_000
     assert (out / "fig4_estimates.png").stat().st_size > 10_000
+    assert (out / "rate_estimate.png").stat().st_size > 10_000
     assert "Omega_z" in capsys.readouterr().out
     assert main(["report", str(out)]) == 0
 

@@ -18,7 +18,7 @@ from gyro_fmu.estimation.metrics import ESTIMATED, RunMetrics, summarize
 from gyro_fmu.results.columns import estimate_column, sigma_column
 from gyro_fmu.results.read import ResultReadError, iter_columns, read_results, units_of
 from gyro_fmu.results.writer import ROW_GROUP, ResultFiles, ResultWriteError
-from gyro_fmu.system.figures import BINS_PER_DECADE, FigureData
+from gyro_fmu.system.figures import BINS_PER_DECADE, RATE_BINS, FigureData
 from gyro_fmu.system.scenario import scenario
 
 COLUMNS = ("time", "plant.x", "observer.Omega_hat")
@@ -263,6 +263,19 @@ def test_the_figure_envelope_is_each_bins_min_and_max_whatever_the_chunks():
     early, late = data.window_rows(False), data.window_rows(True)
     assert np.array_equal(early["time"], t[t <= 0.002])
     assert np.array_equal(late["time"], t[t >= t[-1] - 0.002])
+    # the rate figure's linear-time bins: each bin's min and max of every curve
+    rate = data.rate_envelope()
+    lin = np.minimum(np.floor((t - t[0]) / (t[-1] - t[0]) * RATE_BINS), RATE_BINS - 1)
+    assert len(rate) == np.unique(lin).size == RATE_BINS
+    est, sig = whole[estimate_column("Omega_z")], whole[sigma_column("Omega_z")]
+    true = whole["rate.Omega_z"]
+    for j in (0, 1, 333, RATE_BINS - 1):
+        inside = lin == j
+        assert rate[j, 0] == t[inside].min() and rate[j, 1] == t[inside].max()
+        assert rate[j, 2] == true[inside].min() and rate[j, 5] == est[inside].max()
+        assert rate[j, 6] == (est - sig)[inside].min()
+        assert rate[j, 7] == (est + sig)[inside].max()
+        assert rate[j, 8] == (est - true)[inside].min() and rate[j, 11] == sig[inside].max()
 
 
 def test_reading_and_writing_do_not_import_pandas(tmp_path):
@@ -304,10 +317,11 @@ def test_a_run_streams_both_files_and_report_redraws_from_either(models_dir, tmp
                          {k: whole[sigma_column(k)] for k in ESTIMATED},
                          scenario().with_(overrides={}).params, whole["rate.Omega_z"])
     _same(summary["unknowns"], json.loads(json.dumps(expected["unknowns"])))
-    for name in ("fig3_states.png", "fig4_estimates.png"):
+    for name in ("fig3_states.png", "fig4_estimates.png", "rate_estimate.png"):
         (out / name).unlink()
     assert main(["report", str(out)]) == 0  # from results.parquet
     assert (out / "fig4_estimates.png").stat().st_size > 10_000
+    assert (out / "rate_estimate.png").stat().st_size > 10_000
     (out / "results.parquet").unlink()  # a run of 0.3.x: the CSV alone
     del summary["results"]["binary"]
     (out / "summary.json").write_text(json.dumps(summary))

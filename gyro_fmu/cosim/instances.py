@@ -12,7 +12,8 @@ from ctypes import c_char_p, c_void_p
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from fmpy import extract, read_model_description
+from fmpy import platform as fmpy_platform
+from fmpy import platform_tuple, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (  # type: ignore[attr-defined]
     FMU2Slave,
@@ -112,18 +113,32 @@ def unpacked(path: Path) -> str:
         for old in [k for k in _UNPACKED  # a rebuilt archive, or one gone (a build's)
                     if k[0] == key[0] or not Path(k[0]).exists()]:
             _UNPACKED.pop(old).cleanup()
+        folder = tempfile.TemporaryDirectory(prefix=f"{FOLDER_PREFIX}{os.getpid()}_{path.stem}_")
         try:
             with zipfile.ZipFile(path) as z:
                 problem = archive_problem(z)
+                if not problem:
+                    z.extractall(folder.name, members=_members_to_run(z.namelist()))
         except (zipfile.BadZipFile, OSError) as exc:
             problem = f"not a readable archive ({exc})"
         if problem:
+            folder.cleanup()
             raise CoSimulationError(f"{path} is not unpacked: {problem}; the FMU is damaged "
                                     "or not trustworthy")
-        folder = tempfile.TemporaryDirectory(prefix=f"{FOLDER_PREFIX}{os.getpid()}_{path.stem}_")
-        extract(str(path), unzipdir=folder.name)
         _UNPACKED[key] = folder
     return folder.name
+
+
+#: The binaries' folders of this host (FMI 2.0's name, FMI 3.0's platform tuple).
+_HOST_BINARIES = (f"binaries/{fmpy_platform}/", f"binaries/{platform_tuple}/")
+
+
+def _members_to_run(names: list[str]) -> list[str]:
+    """What an instance reads: the model description, the resources and this host's
+    binaries (not the other platforms' binaries, the sources, the documentation: a
+    quarter of the files and of the unpacking time)."""
+    return [n for n in names if n == "modelDescription.xml" or n.startswith("resources/")
+            or n.startswith(_HOST_BINARIES)]
 
 
 #: Unpacked folders are <tmp>/gyro_fmu_<pid>_<model>_<random>.

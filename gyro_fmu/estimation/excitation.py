@@ -37,7 +37,10 @@ from typing import Literal
 
 import numpy as np
 
-from ..model.drive import TwoToneDrive
+from ..model.drive import (
+    DriveFarFromModesWarning,  # noqa: F401 - its home until 0.4.0
+    TwoToneDrive,
+)
 from ..model.measurement import UNKNOWNS
 from ..model.parameters import GyroParameters, ParameterError
 from ..outputs import save_figure
@@ -232,11 +235,6 @@ def design_drive(
     objective[np.arange(n), np.arange(n), :] = np.nan
     return DriveDesign(freqs, splits_a, sigma, objective, weights, float(force_limit), noise,
                        noise_kind, window, h, Omega_z, measured_pair, start, params)
-
-
-class DriveFarFromModesWarning(UserWarning):
-    """The drive's tones carry much less information on Omega_z than tones placed around
-    the guessed modes would (drive_information_loss)."""
 
 
 #: Tones placed around the guessed modes, as (f1, f2) from the lower and higher mode

@@ -4,6 +4,7 @@ the stamp that says which sources they were made from, and the build `pip instal
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import sys
 from pathlib import Path
@@ -20,7 +21,8 @@ STAMP = "sources.sha256"
 def sources_digest() -> str:
     """Hash of everything the binaries and FMUs are made from: the C sources, the
     declarations and this builder, each by its name relative to its folder (the same in a
-    checkout and in an installation)."""
+    checkout and in an installation). Read once per process while no file changes (the
+    check before every run stats the files instead of reading them)."""
     root = sources_root()
     files = {f.relative_to(root).as_posix(): f
              for f in [*root.glob("core/*"), *root.glob("fmi/*"), *root.glob("models/*/*")]
@@ -28,9 +30,15 @@ def sources_digest() -> str:
     for name in (*DECLARATION_FILES, "fmu/native.py", "fmu/macho.py", "fmu/units.py",
                  "sensor/datasheet.py", "sensor/presets.py", "sensor/gyros.py"):
         files[name] = PACKAGE_DIR / name
+    return _digest(tuple((name, str(files[name]), files[name].stat().st_mtime_ns,
+                          files[name].stat().st_size) for name in sorted(files)))
+
+
+@functools.lru_cache(maxsize=8)
+def _digest(entries: tuple[tuple[str, str, int, int], ...]) -> str:
     h = hashlib.sha256()
-    for name in sorted(files):
-        h.update(name.encode() + b"\0" + files[name].read_bytes())
+    for name, path, _, _ in entries:
+        h.update(name.encode() + b"\0" + Path(path).read_bytes())
     return h.hexdigest()
 
 

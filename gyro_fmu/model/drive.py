@@ -11,6 +11,11 @@ from ..core.library import core as _core
 from ..core.library import core_text
 
 
+class DriveFarFromModesWarning(UserWarning):
+    """The drive's tones carry much less information on Omega_z than tones placed around
+    the guessed modes would (estimation.excitation.drive_information_loss)."""
+
+
 @dataclass(frozen=True)
 class TwoToneDrive:
     """ux = A1 sin(2 pi f1 t) + A2 sin(2 pi f2 t) (eq. 10); uy = 0.

@@ -27,7 +27,7 @@ def _ensure_models(models: Path) -> None:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from .run import replaced_run, run_and_report
+    from .run import FIGURES, replaced_run, run_and_report
 
     sc = scenario_from_args(args)
     fmus = {}
@@ -42,14 +42,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if set(fmus) != {"drive", "rate", "plant", "observer"}:  # ours for the others
         _ensure_models(Path(args.models))
     draw = not args.no_figures and has("matplotlib")
-    summary = run_and_report(sc, out, Path(args.models), fmus, figures=draw)
+    summary = run_and_report(sc, out, Path(args.models), fmus, figures=draw,
+                             ensure=False)  # _ensure_models did it
     for message in summary["warnings"]:
         print(f"warning: {message}", file=sys.stderr)
     _print_summary(summary)
     record = summary["results"]
     written = [record["file"]] + ([record["binary"]["file"]] if "binary" in record else [])
     print(f"wrote {out}/{', '.join(written)}, summary.json" + (
-        ", fig3_states.png, fig4_estimates.png" if draw else "") + (
+        ", " + ", ".join(FIGURES) if draw else "") + (
         f" (replaced a run with {replaced})" if replaced else ""))
     if not args.no_figures and not draw:
         print(f"no figures: they need matplotlib, which is not installed here: "
@@ -326,7 +327,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description="Co-simulate a scenario through the FMUs with fmpy. "
                        "Writes OUT/results.csv and results.parquet (every signal at every "
                        "communication point, streamed to disk as the run goes), "
-                       "summary.json and the figures fig3_states.png and fig4_estimates.png.")
+                       "summary.json and the figures fig3_states.png, fig4_estimates.png and "
+                       "rate_estimate.png.")
     r.add_argument("--fmu", action="append", metavar="INSTANCE=PATH",
                    help="use your FMU for an instance (drive, rate, plant, observer)")
     r.add_argument("--models", default=str(MODELS_DIR),

@@ -9,6 +9,7 @@ first and last `window` seconds at full rate (Fig. 3) and, per bin of log time
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +29,21 @@ _LABELS = {
 
 #: Fixed margins of the 11 x 11 in figures (tight_layout measured each one's text first:
 #: 0.4 s of a 1 s figure).
+#: A log axis' decade labels as plain text (10⁻³): matplotlib's default writes them in
+#: mathtext, whose parser (pyparsing) took 0.3 s of the run's two figures.
+_SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def decade_label(value: float, _pos: object = None) -> str:
+    """"10ⁿ" for a power of ten, "" between (a log axis' major ticks are decades)."""
+    if not value > 0.0 or not math.isfinite(value):
+        return ""
+    exponent = math.log10(value)
+    if abs(exponent - round(exponent)) > 1e-9:
+        return ""
+    return "10" + str(round(exponent)).translate(_SUPERSCRIPT)
+
+
 _MARGINS = {"left": 0.1, "right": 0.98, "bottom": 0.05, "top": 0.94, "hspace": 0.3,
             "wspace": 0.3}
 
@@ -36,11 +52,27 @@ _MARGINS = {"left": 0.1, "right": 0.98, "bottom": 0.05, "top": 0.94, "hspace": 0
 #: at 7 decades; a bin keeps the min and max of each curve, so nothing narrow is lost.
 BINS_PER_DECADE = 200
 
+#: Bins of linear time in the rate figure (about a pixel each at its width).
+RATE_BINS = 1000
+
 #: The signals Fig. 3 draws: (gyroscope or drive column, observer column, label, unit).
 _FIG3_ROWS = (("drive.ux", None, "$u_x$", "N"), ("plant.x", "observer.x_hat", "$x$", "m"),
               ("plant.y", "observer.y_hat", "$y$", "m"),
               ("plant.vx", "observer.vx_hat", r"$\dot x$", "m/s"),
               ("plant.vy", "observer.vy_hat", r"$\dot y$", "m/s"))
+
+
+def _merge_bins(into: dict[int, np.ndarray], bins: np.ndarray, values: np.ndarray) -> None:
+    """Fold rows (in time order, bins non-decreasing) into per-bin rows: the min of the
+    even columns and the max of the odd ones (each quantity as a [min, max] pair)."""
+    starts = np.concatenate([[0], np.flatnonzero(np.diff(bins)) + 1])
+    low = np.zeros(values.shape[1], dtype=bool)
+    low[0::2] = True
+    merged = np.where(low, np.minimum.reduceat(values, starts, axis=0),
+                      np.maximum.reduceat(values, starts, axis=0))
+    for b, row in zip(bins[starts].tolist(), merged, strict=True):
+        old = into.get(b)
+        into[b] = row if old is None else np.where(low, np.fmin(old, row), np.fmax(old, row))
 
 
 class FigureData:
@@ -61,6 +93,9 @@ class FigureData:
         # per log-time bin: [t min, t max] + per unknown [err min (>0), err max,
         # sigma min, sigma max]
         self._bins: dict[int, np.ndarray] = {}
+        # per linear-time bin: [t min, t max, Omega_z min, max, Omega_hat min, max,
+        # Omega_hat - sigma min, Omega_hat + sigma max, error min, max, sigma min, max]
+        self._rate: dict[int, np.ndarray] = {}
 
     def feed(self, chunk: dict[str, np.ndarray]) -> None:
         t = chunk["time"]
@@ -69,6 +104,7 @@ class FigureData:
                             (t >= self.t_end - self.window, self._late)):
             if keep.any():
                 where.append({c: chunk[c][keep] for c in ("time", *fig3)})
+        self._feed_rate(chunk)
         positive = t > 0.0  # log time: the guess at t = 0 has no place
         if not positive.any():
             return
@@ -80,22 +116,29 @@ class FigureData:
             err = np.abs(chunk[estimate_column(name)][positive] - true)
             sig = chunk[sigma_column(name)][positive]
             columns += [np.where(err > 0.0, err, np.inf), err, sig, sig]
-        values = np.column_stack(columns)
-        bins = np.floor(BINS_PER_DECADE * np.log10(t)).astype(np.int64)
-        starts = np.concatenate([[0], np.flatnonzero(np.diff(bins)) + 1])
-        lows = np.minimum.reduceat(values, starts, axis=0)
-        highs = np.maximum.reduceat(values, starts, axis=0)
-        low = np.zeros(values.shape[1], dtype=bool)
-        low[0::2] = True  # t min, err min, sigma min; the odd columns are maxima
-        merged = np.where(low, lows, highs)
-        for b, row in zip(bins[starts].tolist(), merged, strict=True):
-            old = self._bins.get(b)
-            self._bins[b] = row if old is None else np.where(low, np.fmin(old, row),
-                                                             np.fmax(old, row))
+        _merge_bins(self._bins, np.floor(BINS_PER_DECADE * np.log10(t)).astype(np.int64),
+                    np.column_stack(columns))
+
+    def _feed_rate(self, chunk: dict[str, np.ndarray]) -> None:
+        t, true = chunk["time"], chunk[TRUE_RATE]
+        est, sig = chunk[estimate_column("Omega_z")], chunk[sigma_column("Omega_z")]
+        span = max(self.t_end - self.t0, 1e-300)
+        bins = np.minimum(np.floor((t - self.t0) / span * RATE_BINS), RATE_BINS - 1)
+        err = est - true
+        _merge_bins(self._rate, bins.astype(np.int64),
+                    np.column_stack([t, t, true, true, est, est, est - sig, est + sig,
+                                     err, err, sig, sig]))
 
     def window_rows(self, late: bool) -> dict[str, np.ndarray]:
         parts = self._late if late else self._early
         return {c: np.concatenate([p[c] for p in parts]) for c in parts[0]} if parts else {}
+
+    def rate_envelope(self) -> np.ndarray:
+        """Per linear-time bin, in time order: [t min, t max, Omega_z min, max, Omega_hat
+        min, max, Omega_hat - sigma min, Omega_hat + sigma max, error min, max, sigma min,
+        max]."""
+        keys = sorted(self._rate)
+        return np.array([self._rate[k] for k in keys]).reshape(len(keys), 12)
 
     def envelope(self) -> tuple[np.ndarray, np.ndarray]:
         """(bin times, rows): the geometric middle of each bin's samples, and per bin
@@ -124,8 +167,10 @@ def fig3_states(data: FigureData, path: Path) -> Path:
         for i, (plant, obs, label, unit) in enumerate(_FIG3_ROWS):
             ax = axes[i, j]
             if rows:
-                ax.plot(t, rows[plant], "k--", lw=1.2,
-                        label="gyroscope" if obs else "drive")
+                # the gyroscope wide and light, the observer thin on top: both show where
+                # they coincide (a dashed line under a solid one was hidden by it)
+                ax.plot(t, rows[plant], "-", color="0.65" if obs else "k",
+                        lw=3.0 if obs else 1.0, label="gyroscope" if obs else "drive")
                 if obs:
                     ax.plot(t, rows[obs], "r-", lw=0.8, label="observer")
             ax.set_ylabel(f"{label} ({unit})")
@@ -150,7 +195,7 @@ def fig4_estimates(data: FigureData, path: Path) -> Path:
     envelope over bins of log time (`FigureData`)."""
     t, table = data.envelope()
     t = t * 1e3
-    from matplotlib.ticker import NullLocator
+    from matplotlib.ticker import FuncFormatter, NullLocator
 
     plt = pyplot()
     fig, axes = plt.subplots(4, 2, figsize=(11, 11), sharex=True)
@@ -169,6 +214,8 @@ def fig4_estimates(data: FigureData, path: Path) -> Path:
         # that the major ticks already mark
         ax.xaxis.set_minor_locator(NullLocator())
         ax.yaxis.set_minor_locator(NullLocator())
+        ax.xaxis.set_major_formatter(FuncFormatter(decade_label))
+        ax.yaxis.set_major_formatter(FuncFormatter(decade_label))
         positive = np.concatenate([emax[shown], smax[smax > 0.0]])
         positive = positive[np.isfinite(positive)]
         if positive.size:
@@ -185,6 +232,51 @@ def fig4_estimates(data: FigureData, path: Path) -> Path:
                  f"(min-max over {100 * (10 ** (1 / BINS_PER_DECADE) - 1):.1f} % bins of "
                  "time)")
     fig.subplots_adjust(**_MARGINS)
+    save_figure(fig, path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def fig_rate(data: FigureData, path: Path) -> Path:
+    """The rate as a control engineer reads it: Omega_hat with its 1-sigma band against
+    the true Omega_z over the whole run, and below, the error Omega_hat - Omega_z within
+    +-1 and +-3 sigma over the last 80 % (the tail the verdict judges is its last 20 %).
+    Each curve is a min/max envelope over RATE_BINS bins of time, so nothing narrow is
+    lost at any run length."""
+    rows = data.rate_envelope()
+    t = 0.5 * (rows[:, 0] + rows[:, 1]) * 1e3
+    plt = pyplot()
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(11, 7.5))
+    top.fill_between(t, rows[:, 6], rows[:, 7], color="r", alpha=0.2, lw=0,
+                     label=r"$\hat\Omega \pm 1\sigma$ (the observer's own)")
+    top.fill_between(t, rows[:, 4], rows[:, 5], color="r", lw=0.8)
+    top.plot(t, rows[:, 4], "r-", lw=0.8, label=r"$\hat\Omega$ (observer)")
+    top.fill_between(t, rows[:, 2], rows[:, 3], color="k", lw=1.2)
+    top.plot(t, rows[:, 2], "k-", lw=1.2, label=r"$\Omega_z$ (true)")
+    span = np.nanmax(rows[:, 3]) - np.nanmin(rows[:, 2])
+    middle = 0.5 * (np.nanmax(rows[:, 3]) + np.nanmin(rows[:, 2]))
+    half = max(span, 1e-3 * max(abs(middle), 1.0))  # the band may start wide: keep the rate
+    top.set_ylim(middle - half, middle + half)
+    top.set_ylabel("rate (rad/s)")
+    top.set_xlabel("time (ms)")
+    top.legend(loc="lower right", fontsize=8)
+    top.grid(alpha=0.3)
+    tail = t >= t[0] + 0.2 * (t[-1] - t[0]) if len(t) else t
+    tt, err = t[tail], rows[tail]
+    bottom.fill_between(tt, -3 * err[:, 11], 3 * err[:, 11], color="0.85", lw=0,
+                        label=r"$\pm 3\sigma$")
+    bottom.fill_between(tt, -err[:, 11], err[:, 11], color="0.65", lw=0,
+                        label=r"$\pm 1\sigma$")
+    bottom.fill_between(tt, err[:, 8], err[:, 9], color="r", lw=0.8)
+    bottom.plot(tt, err[:, 8], "r-", lw=0.8, label=r"$\hat\Omega - \Omega_z$")
+    bottom.set_ylabel("error (rad/s)")
+    bottom.set_xlabel("time (ms)")
+    bottom.legend(loc="upper right", fontsize=8)
+    bottom.grid(alpha=0.3)
+    top.set_title("the angular rate: the observer's estimate and its own 1-sigma against "
+                  "the truth")
+    bottom.set_title("its error over the last 80 % of the run, against its sigma")
+    fig.subplots_adjust(left=0.1, right=0.98, bottom=0.07, top=0.95, hspace=0.35)
     save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path

@@ -20,10 +20,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import __version__
+from ..cache import remembered
 from ..cosim.master import CoSimulationInterrupted, CoSimulationResult, run_cosimulation
 from ..errors import GyroFmuError
 from ..estimation.metrics import ESTIMATED, RunMetrics, summarize
 from ..fmu.build import FMU_NAMES, MODELS_DIR, ensure_current
+from ..model.drive import DriveFarFromModesWarning
 from ..model.parameters import GyroParameters, ParameterError, validate_for_plant
 from ..model.plant import MeasurementNoise
 from ..outputs import atomic_write, out_folder
@@ -151,8 +153,12 @@ def run_and_report(
     models_dir: Path = MODELS_DIR,
     fmus: Mapping[str, Path] | None = None,
     figures: bool = True,
+    ensure: bool = True,
 ) -> dict:
     """Run the scenario and write results.csv, summary.json and the figures to out_dir.
+
+    ensure: build missing or stale FMUs into models_dir first (False when the caller
+    just did).
 
     The folder is made (or refused) before the run, and removed again if the run fails
     before writing into it. Ctrl-C (CoSimulationInterrupted) writes what was simulated,
@@ -160,11 +166,11 @@ def run_and_report(
     cannot be written is saved to a fresh temporary folder (`write_or_rescue`).
     """
     with out_folder(Path(out_dir)) as folder:
-        return _run_into(sc, folder, models_dir, fmus, figures)
+        return _run_into(sc, folder, models_dir, fmus, figures, ensure)
 
 
 def _run_into(sc: Scenario, out_dir: Path, models_dir: Path, fmus: Mapping[str, Path] | None,
-              figures: bool) -> dict:
+              figures: bool, ensure: bool) -> dict:
     """run_and_report's work, with the folder's lock held."""
     run_id = uuid.uuid4().hex
     with ResultFiles(out_dir, run_id, expected_rows=sc.n_steps + 1) as files:  # removed
@@ -176,7 +182,7 @@ def _run_into(sc: Scenario, out_dir: Path, models_dir: Path, fmus: Mapping[str, 
             noise = absolute_noise(sc)
             start = time.perf_counter()
             try:
-                run_fmus(sc, models_dir, fmus, noise, sink=files)
+                run_fmus(sc, models_dir, fmus, noise, ensure=ensure, sink=files)
                 interrupted = None
             except CoSimulationInterrupted as exc:
                 if files.rows < 2:
@@ -209,15 +215,26 @@ def _run_into(sc: Scenario, out_dir: Path, models_dir: Path, fmus: Mapping[str, 
 
 def _warn_if_drive_far(sc: Scenario) -> None:
     """DriveFarFromModesWarning (into summary.json and the CLI's warnings) when the drive
-    loses more than half the information tones around the guessed modes would give."""
-    from ..estimation.excitation import DriveFarFromModesWarning, drive_warning
-
+    loses more than half the information tones around the guessed modes would give.
+    The verdict is remembered on disk (`gyro_fmu.cache`): a run with the same guess, drive
+    and step as an earlier one does not pay the bound's 0.1 s and scipy's import again."""
     try:
         guess = GyroParameters(**sc.initial_guess)
-        text = drive_warning(guess, sc.the_drive, float(sc.rate.Omega_z(0.0)), sc.step,
-                             sc.measured_pair)
     except GyroFmuError:  # a guess the bound cannot use: the run says what is wrong
         return
+    Omega_z = float(sc.rate.Omega_z(0.0))
+
+    def compute() -> str | None:
+        from ..estimation.excitation import drive_warning
+
+        try:
+            return drive_warning(guess, sc.the_drive, Omega_z, sc.step, sc.measured_pair)
+        except GyroFmuError:  # a guess the bound cannot use: the run says what is wrong
+            return None
+
+    inputs = {"guess": guess.as_dict(), "drive": asdict(sc.the_drive), "Omega_z": Omega_z,
+              "h": sc.step, "measured_pair": int(sc.measured_pair)}
+    text = remembered("drive-warning", inputs, ("estimation", "model"), compute)
     if text:
         warnings.warn(text, DriveFarFromModesWarning, stacklevel=2)
 
@@ -238,7 +255,7 @@ def write_or_rescue(write: Callable[[Path], None], path: Path) -> Path:
 
 
 #: The figures `gyro-fmu run` draws from results.csv.
-FIGURES = ("fig3_states.png", "fig4_estimates.png")
+FIGURES = ("fig3_states.png", "fig4_estimates.png", "rate_estimate.png")
 
 
 class RunOutputError(GyroFmuError):
@@ -247,10 +264,11 @@ class RunOutputError(GyroFmuError):
 
 def make_figures(data: FigureData, out_dir: Path) -> list[Path]:
     """Draw FIGURES into out_dir from `read_back`'s figure data."""
-    from .figures import fig3_states, fig4_estimates
+    from .figures import fig3_states, fig4_estimates, fig_rate
 
-    return [fig3_states(data, Path(out_dir) / FIGURES[0]),
-            fig4_estimates(data, Path(out_dir) / FIGURES[1])]
+    return [draw(data, Path(out_dir) / name)
+            for draw, name in zip((fig3_states, fig4_estimates, fig_rate), FIGURES,
+                                  strict=True)]
 
 
 def load_results(path: Path) -> CoSimulationResult:
