@@ -4,6 +4,7 @@ The public API, imported on first use (``import gyro_fmu`` stays cheap, also ins
 each FMU, which ships this package):
 
 - ``scenario``, ``Scenario``, ``fmu_system``: a gyroscope experiment and its FMU system;
+  ``ensure_fmus(folder)``: the native FMUs copied there (where missing or stale);
 - ``run_cosimulation``, ``Component``, ``Connection``: the FMI 2.0 co-simulation master;
 - ``preset``, ``GyroParameters``: the gyroscope's parameters;
 - ``GyroStateObserver``, ``ObserverTuning``: the augmented-state observer (eqs. 5-9);
@@ -29,6 +30,7 @@ _EXPORTS = {
     "scenario": "gyro_fmu.system.scenario",
     "Scenario": "gyro_fmu.system.scenario",
     "fmu_system": "gyro_fmu.system.scenario",
+    "ensure_fmus": "gyro_fmu.system.run",
     "run_cosimulation": "gyro_fmu.cosim.master",
     "Component": "gyro_fmu.cosim.master",
     "Connection": "gyro_fmu.cosim.master",

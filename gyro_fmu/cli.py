@@ -10,6 +10,10 @@ from pathlib import Path
 
 from . import __version__, options
 from .errors import GyroFmuError
+from .logs import command_logging
+
+#: The options of how much a command says (anywhere on the line, as --debug).
+QUIET, VERBOSE = ("-q", "--quiet"), ("-v", "--verbose")
 
 
 def _cmd_build(args: argparse.Namespace) -> int:
@@ -29,6 +33,36 @@ def _cmd_fmus(args: argparse.Namespace) -> int:
         for name in NATIVE_NAMES:
             folder = dest / f"fmi{version}" if args.fmi == "both" else dest
             print(f"wrote {copy_fmu(prebuilt_fmu(name, version), folder).resolve()}")
+    return 0
+
+
+def examples_dir() -> Path:
+    """The example scripts: gyro_fmu/examples of an installation, examples/ of a checkout."""
+    from importlib.util import find_spec
+
+    spec = find_spec("gyro_fmu.examples")
+    for root in [*(spec.submodule_search_locations or [] if spec else []),
+                 Path(__file__).resolve().parents[1] / "examples"]:
+        if any(Path(root).glob("*.py")):
+            return Path(root)
+    raise GyroFmuError("the example scripts are not in this installation of gyro_fmu: "
+                       "reinstall it (pip install --force-reinstall gyro_fmu)")
+
+
+def _cmd_examples(args: argparse.Namespace) -> int:
+    import shutil
+
+    dest = Path(args.dest)
+    sources = sorted(p for p in examples_dir().iterdir() if p.suffix in (".py", ".sh"))
+    clash = [p.name for p in sources if (dest / p.name).exists()
+             and (dest / p.name).read_bytes() != p.read_bytes()]
+    if clash and not args.force:
+        raise GyroFmuError(f"{dest} holds other files named {', '.join(clash)}: give another "
+                           "--dest, or --force to replace them")
+    dest.mkdir(parents=True, exist_ok=True)
+    for p in sources:
+        shutil.copyfile(p, dest / p.name)
+        print(f"wrote {dest / p.name}")
     return 0
 
 
@@ -53,7 +87,7 @@ GROUPS = {
     "simulate": ("run", "report", "sweep"),
     "analyse": ("observability", "identify", "design-drive", "spec", "datasheet"),
     "calibrate": ("selfcal", "selfcal-warmup", "selfcal-lot", "ratetable"),
-    "export": ("build", "fmus", "ssp", "container"),
+    "export": ("build", "fmus", "ssp", "container", "examples"),
     "check": ("validate", "doctor"),
 }
 
@@ -83,6 +117,10 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     p.add_argument("--debug", action="store_true",
                    help="show the traceback of an error instead of one line")
+    p.add_argument(*QUIET, action="store_true",
+                   help="say nothing while working: warnings and errors only (stderr)")
+    p.add_argument(*VERBOSE, action="store_true",
+                   help="say more while working: debug lines (every FMU log message)")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND",
                            parser_class=_SubcommandParser)
 
@@ -101,6 +139,13 @@ def parser() -> argparse.ArgumentParser:
     f.add_argument("--fmi", choices=("2", "3", "both"), default="both",
                    help="FMI version (both: into DEST/fmi2 and DEST/fmi3)")
     f.set_defaults(func=_cmd_fmus)
+
+    e = sub.add_parser("examples", help="copy the example scripts the tutorials run "
+                       "(python DEST/NAME.py) into a folder")
+    e.add_argument("--dest", default="examples", help="output folder")
+    e.add_argument("--force", action="store_true",
+                   help="replace files of the same names that differ")
+    e.set_defaults(func=_cmd_examples)
 
     v = sub.add_parser("validate", help="re-simulate FMUs and compare with the reference "
                        "results they carry (fmi-ls-ref); exit 1 on any difference")
@@ -168,16 +213,20 @@ def main(argv: list[str] | None = None) -> int:
     cannot be written, a file that is not there): one line naming the cause and the
     remedy, no traceback unless --debug; 130 Ctrl-C, after the work so far is written."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    debug = "--debug" in argv  # anywhere on the line, before or after the command
+    # anywhere on the line, before or after the command
+    debug = "--debug" in argv
+    verbosity = ((any(a in VERBOSE for a in argv) and 1)
+                 or (-1 if any(a in QUIET for a in argv) else 0))
     _terminate_as_interrupt()
     try:  # the imports behind the parser take a second: Ctrl-C there is an interrupt too
         try:  # argparse's own refusal (an option's type, --help, --version): its code
-            args = parser().parse_args([a for a in argv if a != "--debug"])
+            args = parser().parse_args([a for a in argv
+                                        if a not in ("--debug", *QUIET, *VERBOSE)])
         except SystemExit as exc:
             return exc.code if isinstance(exc.code, int) else 2
         from .model.parameters import UnstablePlantWarning
 
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), command_logging(verbosity):
             warnings.simplefilter("ignore", UnstablePlantWarning)  # reported via summary
             return args.func(args)
     except KeyboardInterrupt as exc:

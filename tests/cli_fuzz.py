@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import gc
 import io
 import os
 import signal
@@ -101,6 +102,13 @@ def _invoke(argv: list[str], folder: Path, budget: float
     err, out = io.StringIO(), io.StringIO()
     code: int | None = None
     escaped = None
+    # what an earlier trial cut by its alarm left for the garbage collector (a generator
+    # or a file of the interrupted run, whose finalizer warns) is collected here, so that
+    # its warnings are no later trial's (they were: a ResourceWarning and the overflows of
+    # a 1e300 trial recorded under the next one, design-drive --seed 0)
+    with warnings.catch_warnings(record=True):
+        warnings.simplefilter("always")
+        gc.collect()
     previous = signal.signal(signal.SIGALRM, _alarm)
     cwd = os.getcwd()
     with warnings.catch_warnings(record=True) as caught:

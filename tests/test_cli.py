@@ -203,3 +203,27 @@ def test_a_second_run_with_other_settings_does_not_replace_the_first(models_dir,
     assert kept["scenario"]["stop_time"] == 0.002
     assert main([*base, "--stop-time", "0.003", "--force"]) == 0
     assert "replaced a run with stop_time=0.002" in capsys.readouterr().out
+
+
+def test_quiet_and_verbose_say_less_and_more_through_logging(models_dir, tmp_path, capsys):
+    """What a command says while working goes through `logging` (stderr): -q keeps the
+    warnings and errors, -v adds every FMU log message; the answer stays on stdout, and
+    the command leaves the process's logging as it found it (a library user's own)."""
+    import logging
+
+    sets = [a for k, v in FAST_GYRO.items() for a in ("--set", f"{k}={v!r}")]
+    common = ["run", "--stop-time", "0.002", "--models", str(models_dir), "--no-figures",
+              "--out", str(tmp_path / "r"), "--force", *sets]
+    handlers = list(logging.getLogger().handlers)
+    said = {}
+    for flag in ("-q", None, "--verbose"):
+        assert main([*common, *([flag] if flag else [])]) == 0
+        said[flag] = capsys.readouterr()
+        assert "verdict: pass" in said[flag].out
+        assert "warning: the drive's tones" in said[flag].err  # a warning always shows
+    assert "FMUs in" not in said["-q"].err and "FMUs in" in said[None].err
+    assert "debug:" not in said[None].err
+    assert "debug: gyro_fmu.cosim.instances: observer [logEvents]: GyroObserver: " \
+           "instantiated" in said["--verbose"].err
+    assert logging.getLogger().handlers == handlers
+    assert logging.getLogger("gyro_fmu").level == logging.NOTSET

@@ -83,3 +83,28 @@ def test_read_results(tmp_path: Path) -> None:
     assert "['observer.Omega_hat', 'observer.sigma_Omega_z']" in out
     rms = float(re.search(r"last 20 %: (\S+) rad/s", out).group(1))
     assert rms < 1e-3
+
+
+def test_the_docs_python_snippets_run_as_pasted() -> None:
+    """Every ```python block of docs/ that is not an include, pasted into a fresh Python
+    in an empty folder (the wheel check does the same from the wheel alone)."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    from tutorial_snippets import run, snippets
+
+    found = snippets(EXAMPLES.parent / "docs")
+    assert len(found) >= 3
+    for where, code in found:
+        out = run(sys.executable, where, code)
+        assert out.returncode == 0, f"{where}:\n{out.stderr[-2000:]}"
+
+
+def test_gyro_fmu_examples_copies_the_scripts_the_tutorials_run(tmp_path: Path) -> None:
+    out = run([sys.executable, "-m", "gyro_fmu.cli", "examples", "--dest", "ex"], tmp_path)
+    copied = {p.name for p in (tmp_path / "ex").iterdir()}
+    assert copied == {p.name for p in EXAMPLES.iterdir() if p.suffix in (".py", ".sh")}
+    assert out.count("wrote ") == len(copied)
+    (tmp_path / "ex" / "read_results.py").write_text("# mine\n")
+    refused = subprocess.run([sys.executable, "-m", "gyro_fmu.cli", "examples", "--dest",
+                              "ex"], cwd=tmp_path, capture_output=True, text=True)
+    assert refused.returncode == 2 and "read_results.py" in refused.stderr
+    assert (tmp_path / "ex" / "read_results.py").read_text() == "# mine\n"  # kept

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import os
 import shutil
 import sys
@@ -28,6 +29,8 @@ from fmpy.fmi2 import (  # type: ignore[attr-defined]
 from .archives import archive_problem
 from .system import Component, CoSimulationError
 
+_log = logging.getLogger(__name__)
+
 
 class LogCollector:
     """Keeps every FMU log message, so an error can quote what the FMU said. FMI 2.0's
@@ -45,6 +48,7 @@ class LogCollector:
 
         said = text(message).replace("%%", "%").replace("##", "#")
         self.messages.append((text(instance), int(status), text(category), said))
+        _log.debug("%s [%s]: %s", text(instance), text(category), said)
 
     def recent(self, instance: str, count: int = 5) -> str:
         lines = [m for name, status, _, m in self.messages if name == instance and status > 0]

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import math
-import sys
 from dataclasses import fields, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -18,6 +18,8 @@ from ..model.parameters import ParameterError
 from ..model.resonator import EARTH_RATE, ResonatorError, ResonatorParameters, check_resonator
 from ..outputs import holds_out_folder, write_json
 from . import defaults
+
+_log = logging.getLogger(__name__)
 
 if TYPE_CHECKING:  # the parser is built without the calibration's stack (scipy.optimize)
     from .alarms import CalibrationRefusedError
@@ -179,7 +181,7 @@ def _write_refusal(args: argparse.Namespace, exc: CalibrationRefusedError) -> No
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "summary.json", {"refused": exc.problems, "calibrated": False})
     for problem in exc.problems[1:]:
-        print(f"gyro-fmu: also: {problem}", file=sys.stderr)
+        _log.error("also: %s", problem)
 
 
 @holds_out_folder("runs/ratetable")

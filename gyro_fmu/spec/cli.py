@@ -8,14 +8,16 @@ be trusted (the observer lost, the estimate never settled): no spec is printed t
 from __future__ import annotations
 
 import argparse
+import logging
 import math
-import sys
 import time
 from pathlib import Path
 
 from .. import options
 from ..model.parameters import PARAMETER_NAMES, PRESETS, ParameterError
 from ..outputs import holds_out_folder, save_figure, write_json
+
+_log = logging.getLogger(__name__)
 
 
 def _frequencies(text: str) -> tuple[float, ...]:
@@ -114,7 +116,7 @@ def print_spec(s: dict) -> None:
               f"{a['record_adev_min_tau_s']:.3g} s" + ("" if at1 is None else
                                                        f", {at1:.3g} rad/s at tau = 1 s"))
     for w in s["warnings"]:
-        print(f"note: {w}", file=sys.stderr)
+        _log.warning("%s", w)
 
 
 def _tau_range(a: dict) -> str:

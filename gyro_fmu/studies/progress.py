@@ -10,6 +10,8 @@ import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
+from ..logs import quiet
+
 
 @contextmanager
 def progress_bar(total: int, what: str, unit: str, threshold: int = 0
@@ -17,7 +19,7 @@ def progress_bar(total: int, what: str, unit: str, threshold: int = 0
     """A callback update(done, total[, failed]) drawing a bar of `total` `unit`s (and
     the failed ones), or None when the work is shorter than `threshold` units (not
     worth a bar)."""
-    if total < threshold:
+    if total < threshold or quiet():  # -q: no bar either
         yield None
         return
     from tqdm import tqdm

@@ -14,7 +14,6 @@ from __future__ import annotations
 import logging
 import os
 import signal
-import sys
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -22,6 +21,8 @@ from collections.abc import Callable, Sequence
 from ..errors import GyroFmuError
 from ..extras import require
 from .progress import progress_bar
+
+_log = logging.getLogger(__name__)
 
 
 def run_tasks(
@@ -42,8 +43,7 @@ def run_tasks(
     if scheduler is None:
         n_workers = n_workers or os.cpu_count() or 1
         if progress:  # Dask takes seconds to start its workers: say so first
-            print(f"starting a local Dask cluster of {n_workers} worker processes ...",
-                  file=sys.stderr, flush=True)
+            _log.info("starting a local Dask cluster of %d worker processes ...", n_workers)
         cluster = local_cluster(n_workers)
         client = Client(cluster)
     else:

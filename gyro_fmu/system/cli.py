@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
+import logging
 from dataclasses import fields, replace
 from pathlib import Path
 
@@ -16,14 +16,16 @@ from ..model.parameters import PARAMETER_NAMES, PRESETS, ParameterError
 from .scenario import SCENARIOS, Scenario
 from .scenario_args import SWEEP_STOP_TIME, scenario_from_args
 
+_log = logging.getLogger(__name__)
+
 
 def _ensure_models(models: Path) -> None:
     """Build missing or stale FMUs into `models` and say where they are."""
     from .run import ensure_fmus
 
     built = ensure_fmus(models)
-    print(f"FMUs in {models.resolve()}" + (f" (copied {', '.join(p.stem for p in built)})"
-                                           if built else ""))
+    _log.info("FMUs in %s%s", models.resolve(),
+              f" (copied {', '.join(p.stem for p in built)})" if built else "")
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
@@ -45,7 +47,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     summary = run_and_report(sc, out, Path(args.models), fmus, figures=draw,
                              ensure=False)  # _ensure_models did it
     for message in summary["warnings"]:
-        print(f"warning: {message}", file=sys.stderr)
+        _log.warning("%s", message)
     _print_summary(summary)
     record = summary["results"]
     written = [record["file"]] + ([record["binary"]["file"]] if "binary" in record else [])
@@ -53,8 +55,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         ", " + ", ".join(FIGURES) if draw else "") + (
         f" (replaced a run with {replaced})" if replaced else ""))
     if not args.no_figures and not draw:
-        print(f"no figures: they need matplotlib, which is not installed here: "
-              f"{install_line('figures')} (or --no-figures)", file=sys.stderr)
+        _log.warning("no figures: they need matplotlib, which is not installed here: %s "
+                     "(or --no-figures)", install_line("figures"))
     return 0 if summary["verdict"]["passed"] else 1
 
 

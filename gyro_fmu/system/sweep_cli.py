@@ -4,7 +4,7 @@ and its console report against the Cramer-Rao bound (docs/sweep-bound.md)."""
 from __future__ import annotations
 
 import argparse
-import sys
+import logging
 from pathlib import Path
 
 from .. import options
@@ -12,6 +12,8 @@ from ..fmu.build import MODELS_DIR
 from ..model.parameters import ParameterError
 from ..outputs import holds_out_folder
 from .scenario_args import SWEEP_STOP_TIME, scenario_from_args
+
+_log = logging.getLogger(__name__)
 
 
 def _print_bound(b: dict | None) -> None:
@@ -104,8 +106,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         raise KeyboardInterrupt(f"sweep {res.interrupted}; their rows and the partial "
                                 f"summary are in {args.out}")
     if s["failed"]:  # a lot with failed members is not a clean result (exit 1, as a check)
-        print(f"gyro-fmu: {s['failed']} of {s['n']} gyros failed (listed above, and in "
-              "sweep.csv with their reasons)", file=sys.stderr)
+        _log.error("%d of %d gyros failed (listed above, and in sweep.csv with their "
+                   "reasons)", s["failed"], s["n"])
         return 1
     return 0
 
