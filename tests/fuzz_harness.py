@@ -16,7 +16,13 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from gyro_fmu.fmu.native import NATIVE_INTERFACES, model_sources, sources_root, variables_header
+from gyro_fmu.fmu.native import (
+    NATIVE_INTERFACES,
+    fmi_header_dir,
+    model_sources,
+    sources_root,
+    variables_header,
+)
 
 HERE = Path(__file__).resolve().parent / "fuzz"
 DRIVER = HERE / "fuzz_fmu.c"
@@ -70,7 +76,7 @@ def build(model: str, dest: Path, root: Path | None = None,
                if p.suffix == ".c"]
     out = dest / f"fuzz_{model}"
     cmd = [clang(), *FLAGS, f"-I{gen}", f"-I{root / 'fmi'}", f"-I{root / 'core'}",
-           str(DRIVER), *sources, "-lm", "-o", str(out)]
+           f"-I{fmi_header_dir()}", str(DRIVER), *sources, "-lm", "-o", str(out)]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         raise RuntimeError(f"building the fuzz target of {model} failed:\n{' '.join(cmd)}\n"

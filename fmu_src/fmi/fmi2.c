@@ -3,7 +3,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "fmi2_api.h"
+#include "fmi2Functions.h"
 #include "instance.h"
 
 enum {
@@ -27,10 +27,10 @@ static void log2(Instance *inst, Status status, const char *category, const char
     cb->logger(cb->componentEnvironment, inst->name, (fmi2Status)status, category, escaped);
 }
 
-FMI_EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
-FMI_EXPORT const char *fmi2GetVersion(void) { return "2.0"; }
+FMI2_Export const char *fmi2GetTypesPlatform(void) { return "default"; }
+FMI2_Export const char *fmi2GetVersion(void) { return "2.0"; }
 
-FMI_EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn,
+FMI2_Export fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn,
                                           size_t nCategories, const fmi2String categories[]) {
     (void)nCategories;
     (void)categories;
@@ -40,7 +40,7 @@ FMI_EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn
     return fmi2OK;
 }
 
-FMI_EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
+FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
                                          fmi2String fmuGUID, fmi2String fmuResourceLocation,
                                          const fmi2CallbackFunctions *functions,
                                          fmi2Boolean visible, fmi2Boolean loggingOn) {
@@ -62,9 +62,9 @@ FMI_EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuTy
     return inst;
 }
 
-FMI_EXPORT void fmi2FreeInstance(fmi2Component c) { inst_free(c); }
+FMI2_Export void fmi2FreeInstance(fmi2Component c) { inst_free(c); }
 
-FMI_EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
+FMI2_Export fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
                                           fmi2Real tolerance, fmi2Real startTime,
                                           fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
     (void)toleranceDefined, (void)tolerance, (void)stopTimeDefined, (void)stopTime;
@@ -78,40 +78,40 @@ FMI_EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean tolerance
     return fmi2OK;
 }
 
-FMI_EXPORT fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
+FMI2_Export fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
     Instance *inst = inst_check(c, "fmi2EnterInitializationMode", MODE_INSTANTIATED);
     if (!inst) return fmi2Error;
     return (fmi2Status)inst_enter_initialization(inst, inst->start_time);
 }
 
-FMI_EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
+FMI2_Export fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     Instance *inst = inst_check(c, "fmi2ExitInitializationMode", MODE_INITIALIZATION);
     return inst ? (fmi2Status)inst_exit_initialization(inst) : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2Terminate(fmi2Component c) {
+FMI2_Export fmi2Status fmi2Terminate(fmi2Component c) {
     Instance *inst = inst_check(c, "fmi2Terminate", MODE_STEP | MODE_ERROR);
     return inst ? (fmi2Status)inst_terminate(inst) : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2Reset(fmi2Component c) {
+FMI2_Export fmi2Status fmi2Reset(fmi2Component c) {
     Instance *inst = inst_check(c, "fmi2Reset", ANY_LIVE);
     return inst ? (fmi2Status)inst_reset(inst) : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+FMI2_Export fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                   fmi2Real value[]) {
     Instance *inst = inst_check(c, "fmi2GetReal", GETTABLE);
     return inst ? (fmi2Status)inst_get_float64(inst, vr, nvr, value) : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[],
+FMI2_Export fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[],
                                      size_t nvr, fmi2Integer value[]) {
     Instance *inst = inst_check(c, "fmi2GetInteger", GETTABLE);
     return inst ? (fmi2Status)inst_get_int32(inst, vr, nvr, (int32_t *)value) : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[],
+FMI2_Export fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[],
                                      size_t nvr, fmi2Boolean value[]) {
     (void)vr, (void)value;
     Instance *inst = inst_check(c, "fmi2GetBoolean", GETTABLE);
@@ -120,7 +120,7 @@ FMI_EXPORT fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference v
                : fmi2OK;
 }
 
-FMI_EXPORT fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[],
+FMI2_Export fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[],
                                     size_t nvr, fmi2String value[]) {
     (void)vr, (void)value;
     Instance *inst = inst_check(c, "fmi2GetString", GETTABLE);
@@ -129,19 +129,19 @@ FMI_EXPORT fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr
                : fmi2OK;
 }
 
-FMI_EXPORT fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+FMI2_Export fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                   const fmi2Real value[]) {
     Instance *inst = inst_check(c, "fmi2SetReal", SETTABLE);
     return inst ? (fmi2Status)inst_set_float64(inst, vr, nvr, value) : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[],
+FMI2_Export fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[],
                                      size_t nvr, const fmi2Integer value[]) {
     Instance *inst = inst_check(c, "fmi2SetInteger", SETTABLE);
     return inst ? (fmi2Status)inst_set_int32(inst, vr, nvr, (const int32_t *)value) : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[],
+FMI2_Export fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[],
                                      size_t nvr, const fmi2Boolean value[]) {
     (void)vr, (void)value;
     Instance *inst = inst_check(c, "fmi2SetBoolean", SETTABLE);
@@ -150,7 +150,7 @@ FMI_EXPORT fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference v
                : fmi2OK;
 }
 
-FMI_EXPORT fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[],
+FMI2_Export fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[],
                                     size_t nvr, const fmi2String value[]) {
     (void)vr, (void)value;
     Instance *inst = inst_check(c, "fmi2SetString", SETTABLE);
@@ -159,35 +159,35 @@ FMI_EXPORT fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr
                : fmi2OK;
 }
 
-FMI_EXPORT fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
+FMI2_Export fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
     Instance *inst = inst_check(c, "fmi2GetFMUstate", STATEFUL);
     return inst ? (fmi2Status)inst_get_state(inst, state) : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
+FMI2_Export fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
     Instance *inst = inst_check(c, "fmi2SetFMUstate", STATEFUL);
     return inst ? (fmi2Status)inst_set_state(inst, state) : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state) {
+FMI2_Export fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state) {
     Instance *inst = inst_check(c, "fmi2FreeFMUstate", STATEFUL);
     return inst ? (fmi2Status)inst_free_state(inst, state) : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state,
+FMI2_Export fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state,
                                                  size_t *size) {
     Instance *inst = inst_check(c, "fmi2SerializedFMUstateSize", STATEFUL);
     return inst ? (fmi2Status)inst_serialized_size(inst, state, size) : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state,
+FMI2_Export fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state,
                                             fmi2Byte serializedState[], size_t size) {
     Instance *inst = inst_check(c, "fmi2SerializeFMUstate", STATEFUL);
     return inst ? (fmi2Status)inst_serialize(inst, state, (unsigned char *)serializedState, size)
                 : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[],
+FMI2_Export fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[],
                                               size_t size, fmi2FMUstate *state) {
     Instance *inst = inst_check(c, "fmi2DeSerializeFMUstate", STATEFUL);
     return inst ? (fmi2Status)inst_deserialize(inst, (const unsigned char *)serializedState,
@@ -195,7 +195,7 @@ FMI_EXPORT fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte se
                 : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2GetDirectionalDerivative(
+FMI2_Export fmi2Status fmi2GetDirectionalDerivative(
     fmi2Component c, const fmi2ValueReference vUnknown_ref[], size_t nUnknown,
     const fmi2ValueReference vKnown_ref[], size_t nKnown, const fmi2Real dvKnown[],
     fmi2Real dvUnknown[]) {
@@ -206,7 +206,7 @@ FMI_EXPORT fmi2Status fmi2GetDirectionalDerivative(
                 : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2SetRealInputDerivatives(fmi2Component c,
+FMI2_Export fmi2Status fmi2SetRealInputDerivatives(fmi2Component c,
                                                   const fmi2ValueReference vr[], size_t nvr,
                                                   const fmi2Integer order[],
                                                   const fmi2Real value[]) {
@@ -216,7 +216,7 @@ FMI_EXPORT fmi2Status fmi2SetRealInputDerivatives(fmi2Component c,
                 : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c,
+FMI2_Export fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c,
                                                    const fmi2ValueReference vr[], size_t nvr,
                                                    const fmi2Integer order[],
                                                    fmi2Real value[]) {
@@ -226,7 +226,7 @@ FMI_EXPORT fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c,
                 : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
+FMI2_Export fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
                                  fmi2Real communicationStepSize,
                                  fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
     (void)noSetFMUStatePriorToCurrentPoint;
@@ -236,13 +236,13 @@ FMI_EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationP
                 : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2CancelStep(fmi2Component c) {
+FMI2_Export fmi2Status fmi2CancelStep(fmi2Component c) {
     Instance *inst = inst_check(c, "fmi2CancelStep", MODE_STEP);
     return inst ? (fmi2Status)inst_unsupported(inst, "fmi2CancelStep (steps are synchronous)")
                 : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s,
+FMI2_Export fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s,
                                     fmi2Status *value) {
     Instance *inst = inst_check(c, "fmi2GetStatus", ANY_LIVE);
     if (!inst || !value) return fmi2Error;
@@ -251,7 +251,7 @@ FMI_EXPORT fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s,
     return fmi2OK;
 }
 
-FMI_EXPORT fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s,
+FMI2_Export fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s,
                                         fmi2Real *value) {
     Instance *inst = inst_check(c, "fmi2GetRealStatus", ANY_LIVE);
     if (!inst || !value) return fmi2Error;
@@ -261,14 +261,14 @@ FMI_EXPORT fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s,
     return fmi2OK;
 }
 
-FMI_EXPORT fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s,
+FMI2_Export fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s,
                                            fmi2Integer *value) {
     (void)s, (void)value;
     Instance *inst = inst_check(c, "fmi2GetIntegerStatus", ANY_LIVE);
     return inst ? (fmi2Status)inst_unsupported(inst, "fmi2GetIntegerStatus") : fmi2Error;
 }
 
-FMI_EXPORT fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s,
+FMI2_Export fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s,
                                            fmi2Boolean *value) {
     Instance *inst = inst_check(c, "fmi2GetBooleanStatus", ANY_LIVE);
     if (!inst || !value) return fmi2Error;
@@ -277,7 +277,7 @@ FMI_EXPORT fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind
     return fmi2OK;
 }
 
-FMI_EXPORT fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s,
+FMI2_Export fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s,
                                           fmi2String *value) {
     (void)s, (void)value;
     Instance *inst = inst_check(c, "fmi2GetStringStatus", ANY_LIVE);

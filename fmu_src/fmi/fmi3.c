@@ -4,7 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "fmi3_api.h"
+#include "fmi3Functions.h"
 #include "instance.h"
 
 enum {
@@ -22,9 +22,9 @@ static void log3(Instance *inst, Status status, const char *category, const char
     Instance *inst = inst_check(instance, call, modes); \
     if (!inst) return fmi3Error
 
-FMI_EXPORT const char *fmi3GetVersion(void) { return "3.0"; }
+FMI3_Export const char *fmi3GetVersion(void) { return "3.0"; }
 
-FMI_EXPORT fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn,
+FMI3_Export fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn,
                                           size_t nCategories, const fmi3String categories[]) {
     (void)nCategories, (void)categories;
     CHECK("fmi3SetDebugLogging", ANY_LIVE);
@@ -32,7 +32,7 @@ FMI_EXPORT fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean log
     return fmi3OK;
 }
 
-FMI_EXPORT fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName,
+FMI3_Export fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName,
                                                      fmi3String instantiationToken,
                                                      fmi3String resourcePath,
                                                      fmi3Boolean visible,
@@ -47,7 +47,7 @@ FMI_EXPORT fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName,
     return NULL;
 }
 
-FMI_EXPORT fmi3Instance fmi3InstantiateCoSimulation(
+FMI3_Export fmi3Instance fmi3InstantiateCoSimulation(
     fmi3String instanceName, fmi3String instantiationToken, fmi3String resourcePath,
     fmi3Boolean visible, fmi3Boolean loggingOn, fmi3Boolean eventModeUsed,
     fmi3Boolean earlyReturnAllowed, const fmi3ValueReference requiredIntermediateVariables[],
@@ -67,7 +67,7 @@ FMI_EXPORT fmi3Instance fmi3InstantiateCoSimulation(
                     instanceEnvironment, loggingOn);
 }
 
-FMI_EXPORT fmi3Instance fmi3InstantiateScheduledExecution(
+FMI3_Export fmi3Instance fmi3InstantiateScheduledExecution(
     fmi3String instanceName, fmi3String instantiationToken, fmi3String resourcePath,
     fmi3Boolean visible, fmi3Boolean loggingOn, fmi3InstanceEnvironment env,
     fmi3LogMessageCallback logMessage, fmi3ClockUpdateCallback clockUpdate,
@@ -80,9 +80,9 @@ FMI_EXPORT fmi3Instance fmi3InstantiateScheduledExecution(
     return NULL;
 }
 
-FMI_EXPORT void fmi3FreeInstance(fmi3Instance instance) { inst_free(instance); }
+FMI3_Export void fmi3FreeInstance(fmi3Instance instance) { inst_free(instance); }
 
-FMI_EXPORT fmi3Status fmi3EnterInitializationMode(fmi3Instance instance,
+FMI3_Export fmi3Status fmi3EnterInitializationMode(fmi3Instance instance,
                                                   fmi3Boolean toleranceDefined,
                                                   fmi3Float64 tolerance, fmi3Float64 startTime,
                                                   fmi3Boolean stopTimeDefined,
@@ -92,48 +92,48 @@ FMI_EXPORT fmi3Status fmi3EnterInitializationMode(fmi3Instance instance,
     return (fmi3Status)inst_enter_initialization(inst, startTime);
 }
 
-FMI_EXPORT fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
+FMI3_Export fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
     CHECK("fmi3ExitInitializationMode", MODE_INITIALIZATION);
     return (fmi3Status)inst_exit_initialization(inst);
 }
 
-FMI_EXPORT fmi3Status fmi3EnterEventMode(fmi3Instance instance) {
+FMI3_Export fmi3Status fmi3EnterEventMode(fmi3Instance instance) {
     CHECK("fmi3EnterEventMode", ANY_LIVE);
     return (fmi3Status)inst_unsupported(inst, "fmi3EnterEventMode (hasEventMode=false)");
 }
 
-FMI_EXPORT fmi3Status fmi3Terminate(fmi3Instance instance) {
+FMI3_Export fmi3Status fmi3Terminate(fmi3Instance instance) {
     CHECK("fmi3Terminate", MODE_STEP | MODE_ERROR);
     return (fmi3Status)inst_terminate(inst);
 }
 
-FMI_EXPORT fmi3Status fmi3Reset(fmi3Instance instance) {
+FMI3_Export fmi3Status fmi3Reset(fmi3Instance instance) {
     CHECK("fmi3Reset", ANY_LIVE);
     return (fmi3Status)inst_reset(inst);
 }
 
-FMI_EXPORT fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference vr[],
+FMI3_Export fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference vr[],
                                      size_t nvr, fmi3Float64 values[], size_t nValues) {
     CHECK("fmi3GetFloat64", GETTABLE);
     if (nValues != nvr) return (fmi3Status)inst_unsupported(inst, "arrays (nValues != nvr)");
     return (fmi3Status)inst_get_float64(inst, vr, nvr, values);
 }
 
-FMI_EXPORT fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[],
+FMI3_Export fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[],
                                      size_t nvr, const fmi3Float64 values[], size_t nValues) {
     CHECK("fmi3SetFloat64", SETTABLE);
     if (nValues != nvr) return (fmi3Status)inst_unsupported(inst, "arrays (nValues != nvr)");
     return (fmi3Status)inst_set_float64(inst, vr, nvr, values);
 }
 
-FMI_EXPORT fmi3Status fmi3GetInt32(fmi3Instance instance, const fmi3ValueReference vr[],
+FMI3_Export fmi3Status fmi3GetInt32(fmi3Instance instance, const fmi3ValueReference vr[],
                                    size_t nvr, fmi3Int32 values[], size_t nValues) {
     CHECK("fmi3GetInt32", GETTABLE);
     if (nValues != nvr) return (fmi3Status)inst_unsupported(inst, "arrays (nValues != nvr)");
     return (fmi3Status)inst_get_int32(inst, vr, nvr, values);
 }
 
-FMI_EXPORT fmi3Status fmi3SetInt32(fmi3Instance instance, const fmi3ValueReference vr[],
+FMI3_Export fmi3Status fmi3SetInt32(fmi3Instance instance, const fmi3ValueReference vr[],
                                    size_t nvr, const fmi3Int32 values[], size_t nValues) {
     CHECK("fmi3SetInt32", SETTABLE);
     if (nValues != nvr) return (fmi3Status)inst_unsupported(inst, "arrays (nValues != nvr)");
@@ -142,14 +142,14 @@ FMI_EXPORT fmi3Status fmi3SetInt32(fmi3Instance instance, const fmi3ValueReferen
 
 /* Types this FMU has no variables of: an empty call is fine, any value reference is not. */
 #define NO_VARIABLES(T, Get, Set)                                                           \
-    FMI_EXPORT fmi3Status fmi3##Get(fmi3Instance instance, const fmi3ValueReference vr[],  \
+    FMI3_Export fmi3Status fmi3##Get(fmi3Instance instance, const fmi3ValueReference vr[],  \
                                     size_t nvr, T values[], size_t nValues) {              \
         (void)vr, (void)values, (void)nValues;                                             \
         CHECK("fmi3" #Get, GETTABLE);                                                      \
         return nvr ? (fmi3Status)inst_unsupported(inst, "fmi3" #Get " (no such variables)") \
                    : fmi3OK;                                                               \
     }                                                                                      \
-    FMI_EXPORT fmi3Status fmi3##Set(fmi3Instance instance, const fmi3ValueReference vr[],  \
+    FMI3_Export fmi3Status fmi3##Set(fmi3Instance instance, const fmi3ValueReference vr[],  \
                                     size_t nvr, const T values[], size_t nValues) {        \
         (void)vr, (void)values, (void)nValues;                                             \
         CHECK("fmi3" #Set, SETTABLE);                                                      \
@@ -168,7 +168,7 @@ NO_VARIABLES(fmi3UInt64, GetUInt64, SetUInt64)
 NO_VARIABLES(fmi3Boolean, GetBoolean, SetBoolean)
 NO_VARIABLES(fmi3String, GetString, SetString)
 
-FMI_EXPORT fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference vr[],
+FMI3_Export fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference vr[],
                                     size_t nvr, size_t valueSizes[], fmi3Binary values[],
                                     size_t nValues) {
     (void)vr, (void)valueSizes, (void)values, (void)nValues;
@@ -176,7 +176,7 @@ FMI_EXPORT fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueRefere
     return nvr ? (fmi3Status)inst_unsupported(inst, "fmi3GetBinary (no such variables)") : fmi3OK;
 }
 
-FMI_EXPORT fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueReference vr[],
+FMI3_Export fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueReference vr[],
                                     size_t nvr, const size_t valueSizes[],
                                     const fmi3Binary values[], size_t nValues) {
     (void)vr, (void)valueSizes, (void)values, (void)nValues;
@@ -184,28 +184,28 @@ FMI_EXPORT fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueRefere
     return nvr ? (fmi3Status)inst_unsupported(inst, "fmi3SetBinary (no such variables)") : fmi3OK;
 }
 
-FMI_EXPORT fmi3Status fmi3GetClock(fmi3Instance instance, const fmi3ValueReference vr[],
+FMI3_Export fmi3Status fmi3GetClock(fmi3Instance instance, const fmi3ValueReference vr[],
                                    size_t nvr, fmi3Clock values[]) {
     (void)vr, (void)values;
     CHECK("fmi3GetClock", ANY_LIVE);
     return nvr ? (fmi3Status)inst_unsupported(inst, "fmi3GetClock (no clocks)") : fmi3OK;
 }
 
-FMI_EXPORT fmi3Status fmi3SetClock(fmi3Instance instance, const fmi3ValueReference vr[],
+FMI3_Export fmi3Status fmi3SetClock(fmi3Instance instance, const fmi3ValueReference vr[],
                                    size_t nvr, const fmi3Clock values[]) {
     (void)vr, (void)values;
     CHECK("fmi3SetClock", ANY_LIVE);
     return nvr ? (fmi3Status)inst_unsupported(inst, "fmi3SetClock (no clocks)") : fmi3OK;
 }
 
-FMI_EXPORT fmi3Status fmi3GetNumberOfVariableDependencies(fmi3Instance instance,
+FMI3_Export fmi3Status fmi3GetNumberOfVariableDependencies(fmi3Instance instance,
                                                           fmi3ValueReference vr, size_t *n) {
     (void)vr, (void)n;
     CHECK("fmi3GetNumberOfVariableDependencies", ANY_LIVE);
     return (fmi3Status)inst_unsupported(inst, "fmi3GetNumberOfVariableDependencies");
 }
 
-FMI_EXPORT fmi3Status fmi3GetVariableDependencies(fmi3Instance instance, fmi3ValueReference dep,
+FMI3_Export fmi3Status fmi3GetVariableDependencies(fmi3Instance instance, fmi3ValueReference dep,
                                                   size_t elementIndicesOfDependent[],
                                                   fmi3ValueReference independents[],
                                                   size_t elementIndicesOfIndependents[],
@@ -217,34 +217,34 @@ FMI_EXPORT fmi3Status fmi3GetVariableDependencies(fmi3Instance instance, fmi3Val
     return (fmi3Status)inst_unsupported(inst, "fmi3GetVariableDependencies");
 }
 
-FMI_EXPORT fmi3Status fmi3GetFMUState(fmi3Instance instance, fmi3FMUState *state) {
+FMI3_Export fmi3Status fmi3GetFMUState(fmi3Instance instance, fmi3FMUState *state) {
     CHECK("fmi3GetFMUState", ANY_LIVE);
     return (fmi3Status)inst_get_state(inst, state);
 }
 
-FMI_EXPORT fmi3Status fmi3SetFMUState(fmi3Instance instance, fmi3FMUState state) {
+FMI3_Export fmi3Status fmi3SetFMUState(fmi3Instance instance, fmi3FMUState state) {
     CHECK("fmi3SetFMUState", ANY_LIVE);
     return (fmi3Status)inst_set_state(inst, state);
 }
 
-FMI_EXPORT fmi3Status fmi3FreeFMUState(fmi3Instance instance, fmi3FMUState *state) {
+FMI3_Export fmi3Status fmi3FreeFMUState(fmi3Instance instance, fmi3FMUState *state) {
     CHECK("fmi3FreeFMUState", ANY_LIVE);
     return (fmi3Status)inst_free_state(inst, state);
 }
 
-FMI_EXPORT fmi3Status fmi3SerializedFMUStateSize(fmi3Instance instance, fmi3FMUState state,
+FMI3_Export fmi3Status fmi3SerializedFMUStateSize(fmi3Instance instance, fmi3FMUState state,
                                                  size_t *size) {
     CHECK("fmi3SerializedFMUStateSize", ANY_LIVE);
     return (fmi3Status)inst_serialized_size(inst, state, size);
 }
 
-FMI_EXPORT fmi3Status fmi3SerializeFMUState(fmi3Instance instance, fmi3FMUState state,
+FMI3_Export fmi3Status fmi3SerializeFMUState(fmi3Instance instance, fmi3FMUState state,
                                             fmi3Byte serializedState[], size_t size) {
     CHECK("fmi3SerializeFMUState", ANY_LIVE);
     return (fmi3Status)inst_serialize(inst, state, serializedState, size);
 }
 
-FMI_EXPORT fmi3Status fmi3DeserializeFMUState(fmi3Instance instance,
+FMI3_Export fmi3Status fmi3DeserializeFMUState(fmi3Instance instance,
                                               const fmi3Byte serializedState[], size_t size,
                                               fmi3FMUState *state) {
     CHECK("fmi3DeserializeFMUState", ANY_LIVE);
@@ -252,12 +252,12 @@ FMI_EXPORT fmi3Status fmi3DeserializeFMUState(fmi3Instance instance,
 }
 
 #define UNSUPPORTED(name, ...)                                  \
-    FMI_EXPORT fmi3Status name(fmi3Instance instance, __VA_ARGS__) { \
+    FMI3_Export fmi3Status name(fmi3Instance instance, __VA_ARGS__) { \
         CHECK(#name, ANY_LIVE);                                 \
         return (fmi3Status)inst_unsupported(inst, #name);       \
     }
 #define UNSUPPORTED0(name)                                      \
-    FMI_EXPORT fmi3Status name(fmi3Instance instance) {         \
+    FMI3_Export fmi3Status name(fmi3Instance instance) {         \
         CHECK(#name, ANY_LIVE);                                 \
         return (fmi3Status)inst_unsupported(inst, #name);       \
     }
@@ -310,12 +310,12 @@ UNSUPPORTED(fmi3GetOutputDerivatives, const fmi3ValueReference vr[], size_t nvr,
 UNSUPPORTED(fmi3ActivateModelPartition, fmi3ValueReference clockReference,
             fmi3Float64 activationTime)
 
-FMI_EXPORT fmi3Status fmi3EnterStepMode(fmi3Instance instance) {
+FMI3_Export fmi3Status fmi3EnterStepMode(fmi3Instance instance) {
     CHECK("fmi3EnterStepMode", ANY_LIVE);
     return (fmi3Status)inst_unsupported(inst, "fmi3EnterStepMode (hasEventMode=false)");
 }
 
-FMI_EXPORT fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoint,
+FMI3_Export fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoint,
                                  fmi3Float64 communicationStepSize,
                                  fmi3Boolean noSetFMUStatePriorToCurrentPoint,
                                  fmi3Boolean *eventHandlingNeeded,

@@ -75,7 +75,12 @@ TARGETS = (
 )
 FLAGS = ["-std=c99", "-O2", "-g0", "-s", "-ffp-contract=off", "-fno-fast-math", "-Wall", "-Wextra"]
 FMI_LAYER = ("instance.c", "fmi2.c", "fmi3.c")
-FMI_HEADERS = ("fmi2_api.h", "fmi3_api.h", "model.h", "instance.h")
+FMI_HEADERS = ("model.h", "instance.h")
+#: The FMI standard's own headers (FMI 2.0.4, 3.0), taken at build time from fmpy, which
+#: ships them (fmpy/c-code): the repository keeps only code written here, and each FMU's
+#: sources/ carries them, as the Reference-FMUs' do.
+STANDARD_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h",
+                    "fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")
 CORE_SOURCES = ("gyro_text.c", "gyro_rng.c", "gyro_plant.c", "gyro_signals.c",
                 *OBSERVER_SOURCES, "gyro_master.c", "gyro_resonator.c", "gyro_loops.c",
                 "gyro_carrier.c", "gyro_demod.c")
@@ -249,13 +254,28 @@ def build_description(interface: FmuInterface) -> bytes:
     return b'<?xml version="1.0" encoding="UTF-8"?>\n' + tostring(root, encoding="utf-8")
 
 
+def fmi_header_dir() -> Path:
+    """The folder of the FMI standard's headers: fmpy's c-code (fmpy is a dependency of
+    the build and of the package)."""
+    from importlib.util import find_spec
+
+    spec = find_spec("fmpy")
+    folder = Path(spec.origin).parent / "c-code" if spec and spec.origin else None
+    if folder is None or not all((folder / h).is_file() for h in STANDARD_HEADERS):
+        raise NativeBuildError("the FMI standard's headers (fmpy/c-code: "
+                               f"{', '.join(STANDARD_HEADERS)}) are missing: pip install "
+                               "fmpy (0.3.20 or later)")
+    return folder
+
+
 def model_sources(interface: FmuInterface) -> list[Path]:
     """Every C file and header one model's binary is compiled from (variables.h aside)."""
     root = sources_root()
     core = root / "core"
     sources = [core / n for n in (*COMMON_CORE, *interface.core_sources)]
     return [root / "models" / interface.identifier / "model.c",
-            *(root / "fmi" / n for n in (*FMI_LAYER, *FMI_HEADERS)), *sources,
+            *(root / "fmi" / n for n in (*FMI_LAYER, *FMI_HEADERS)),
+            *(fmi_header_dir() / n for n in STANDARD_HEADERS), *sources,
             *(core / h for h in _core_headers(sources))]
 
 
@@ -332,7 +352,7 @@ def build_binaries(interface: FmuInterface, work: Path,
     gen.mkdir(parents=True, exist_ok=True)
     (gen / "variables.h").write_text(variables_header(interface))
     sources = [p for p in model_sources(interface) if p.suffix == ".c"]
-    include = [gen, root / "fmi", root / "core"]
+    include = [gen, root / "fmi", root / "core", fmi_header_dir()]
     binaries = {t.fmi3: compile_library(t, sources, include,
                                         work / t.fmi3 / t.library(interface.identifier))
                 for t in targets}

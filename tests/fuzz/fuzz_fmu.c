@@ -15,7 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "fmi2_api.h"
+#include "fmi2Functions.h"
 #include "instance.h"
 #include "model.h"
 
