@@ -11,7 +11,7 @@ import ctypes
 import functools
 from ctypes import POINTER, c_char, c_char_p, c_double, c_int, c_int32, c_size_t
 
-from .library import Params, core
+from .library import Params, RateProfile, TwoToneDrive, core
 
 NPAR, IPAR, IOM, NMAX, MMAX, RMAX = 7, 4, 11, 14, 7, 3
 #: Result codes of gyro_observer_step / update / predict.
@@ -91,6 +91,10 @@ FUNCTIONS = {
     "gyro_observer_beta": (_D, [c_int, c_int]),
     "gyro_observer_mix": (None, [_O]),
     "gyro_observer_combine": (None, [_O, _DP, _DP, _DP]),
+    # the standard system in one C loop (gyro_chain.h): drive, rate, plant, observer
+    "gyro_chain_run": (ctypes.c_int64, [POINTER(TwoToneDrive), POINTER(RateProfile),
+                                        ctypes.c_void_p, _O, c_int, _D, ctypes.c_int64, _DP,
+                                        POINTER(c_int), c_char_p, c_size_t]),
 }
 
 

@@ -182,6 +182,24 @@ class GyroStateObserver:
         return self._c.lost_message.decode() if self._c.lost else None
 
     # ------------------------------------------------------------------ API
+    @property
+    def c_struct(self) -> cobs.Observer:
+        """The core's GyroObserver this object steps (for a C loop over it: core chain)."""
+        return self._c
+
+    @property
+    def message_buffer(self) -> ctypes.Array:
+        """Where the core writes the words of a step's result (check_step reads them)."""
+        return self._msg
+
+    def check_step(self, code: int, h: float) -> None:
+        """What step() does with the core's result `code` of a step of h done elsewhere
+        (a C loop): raise if the filter was lost or the step refused, warn once per h."""
+        if code:
+            self._result(code)
+        if h != getattr(self, "_coarse_h", 0.0):
+            self._warn_if_coarse(h)
+
     def _result(self, code: int) -> None:
         if code >= 0 and code != cobs.STEP_LOST:
             return
@@ -199,11 +217,8 @@ class GyroStateObserver:
         Omega_z is likewise held at its estimate over the step. h (s) may vary.
         Same as update(z1, z2, h) then predict(ux, uy, h), in one call of the core.
         """
-        code = self._lib.gyro_observer_step(self._ref, ux, uy, z1, z2, h, self._msg, 2048)
-        if code:
-            self._result(code)
-        if h != getattr(self, "_coarse_h", 0.0):
-            self._warn_if_coarse(h)
+        self.check_step(self._lib.gyro_observer_step(self._ref, ux, uy, z1, z2, h, self._msg,
+                                                     2048), h)
 
     def _warn_if_coarse(self, h: float) -> None:
         """CoarseStepWarning once per step size (GyroObserver.fmu logs the same words)."""

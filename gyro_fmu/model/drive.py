@@ -38,6 +38,11 @@ class TwoToneDrive:
         object.__setattr__(self, "_c", CDrive(float(self.A1), float(self.f1),
                                               float(self.A2), float(self.f2)))
 
+    @property
+    def c_struct(self):
+        """The core's GyroTwoToneDrive of these settings (for a C loop over it)."""
+        return self._c
+
     def ux(self, t: float) -> float:
         """x-axis drive force at time t (s), N: the C core's gyro_drive_ux, as in
         TwoToneDrive.fmu."""

@@ -87,6 +87,11 @@ class GyroPlantModel:
             raise ValueError(f"step size h={h!r} s must be > 0")
         self._step(self._ptr, ux, uy, Omega_z, h)
 
+    @property
+    def c_pointer(self) -> ctypes.c_void_p:
+        """The core's GyroPlant this object steps (for a C loop over it: core chain)."""
+        return self._ptr
+
     def output_row(self) -> list[float]:
         """[x, vx, y, vy] measured (noise included), then ax, ay: the FMU's outputs."""
         self._outputs(self._ptr, self._out)

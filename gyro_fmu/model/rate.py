@@ -46,6 +46,11 @@ class RateProfile:
                                              float(self.amplitude), float(self.frequency),
                                              float(self.slope), float(self.t_start)))
 
+    @property
+    def c_struct(self):
+        """The core's GyroRateProfile of these settings (for a C loop over it)."""
+        return self._c
+
     def Omega_z(self, t: float) -> float:
         """Omega_z at time t (s), rad/s: the C core's gyro_rate_Omega_z, as in
         RateProfile.fmu."""

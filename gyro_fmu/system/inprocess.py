@@ -2,18 +2,23 @@
 
 Same drive, rate, plant and observer objects as the FMUs wrap, same Jacobi
 order, same column names: the FMI run must reproduce it bit for bit, and the
-wall-time ratio of the two is the cost of FMI and the master.
+wall-time ratio of the two is the cost of FMI and the master. The steps run in one
+call of the C core (gyro_chain.c: no Python per step; benchmarks/inprocess_chain.py).
 """
 
 from __future__ import annotations
+
+import ctypes
 
 import numpy as np
 
 from ..cosim.master import CoSimulationResult
 from ..estimation.observer import GyroStateObserver, ObserverTuning
 from ..estimation.observer_rate import RATE_KINDS
+from ..model.drive import TwoToneDrive
 from ..model.parameters import GyroParameters
 from ..model.plant import MEASURED, GyroPlantModel, MeasurementNoise
+from ..model.rate import RateProfile
 from .scenario import Scenario, absolute_noise, observer_tuning
 
 ESTIMATED = GyroStateObserver.ESTIMATED
@@ -45,20 +50,29 @@ def run_inprocess(sc: Scenario, noise: MeasurementNoise | None = None) -> CoSimu
         GyroParameters(**sc.initial_guess), sc.Omega_z_0, sc.measured_pair,
         ObserverTuning(**observer_tuning(sc, noise)),
     )
-    pair = (0, 2) if sc.measured_pair == 1 else (1, 3)
     data = np.empty((sc.n_steps + 1, len(COLUMNS)))
-    t_eval = 0.0  # the FMUs evaluate sources at t_prev + h, not k * h (they differ by ulps)
-    for k in range(sc.n_steps + 1):
-        t = k * h
-        ux, Om = drive.ux(t_eval), rate.Omega_z(t_eval)
-        t_eval = t + h
-        z = plant.output_row()  # x, vx, y, vy measured, then ax, ay
-        row = data[k]
-        row[0:4] = t, ux, 0.0, Om
-        row[4:10] = z
-        row[10:] = [*observer.output_row(), *observer.rate_probabilities().values()]
-        if k == sc.n_steps:
-            break
-        plant.step(ux, 0.0, Om, h)
-        observer.step(ux, 0.0, z[pair[0]], z[pair[1]], h)
-    return CoSimulationResult(COLUMNS, data, {})
+    rows, code = run_chain(drive, rate, plant, observer, sc.measured_pair, h, sc.n_steps,
+                           data)
+    observer.check_step(code, h)  # the lost filter's error, the coarse step's warning
+    return CoSimulationResult(COLUMNS, data[:rows], {})
+
+
+def run_chain(drive: TwoToneDrive, rate: RateProfile, plant: GyroPlantModel,
+              observer: GyroStateObserver, pair: int, h: float, n_steps: int,
+              out: np.ndarray) -> tuple[int, int]:
+    """The C core's loop over the four (gyro_chain_run): rows k = 0..n_steps of COLUMNS
+    into `out`, plant and observer stepped between them. (rows filled, the last observer
+    step's result code): fewer rows when the filter was lost."""
+    from ..core.observer import observer_core
+
+    if out.shape != (n_steps + 1, len(COLUMNS)) or not out.flags.c_contiguous \
+            or out.dtype != np.float64:
+        raise ValueError(f"out must be a C-contiguous float64 array of {n_steps + 1} x "
+                         f"{len(COLUMNS)}")
+    code, msg = ctypes.c_int(0), observer.message_buffer
+    rows = observer_core().gyro_chain_run(
+        ctypes.byref(drive.c_struct), ctypes.byref(rate.c_struct), plant.c_pointer,
+        ctypes.byref(observer.c_struct), int(pair), float(h), int(n_steps),
+        out.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), ctypes.byref(code), msg,
+        len(msg))
+    return int(rows), code.value
