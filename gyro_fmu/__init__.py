@@ -20,11 +20,14 @@ Subpackages, lowest first: ``core`` (the C core), ``model`` (physics) and ``cosi
 from __future__ import annotations
 
 import importlib
+import os
 
 __version__ = "0.4.0"
 
-# Many FMUs in one process, each shipping this package: fmu/shipped_copies.py
-importlib.import_module("gyro_fmu.fmu.shipped_copies").install()
+# Many FMUs in one process, each shipping this package (the pythonfmu flavour's, whose
+# resources/ hold a copy): fmu/shipped_copies.py. An installed package needs no hook.
+if os.path.basename(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))) == "resources":
+    importlib.import_module("gyro_fmu.fmu.shipped_copies").install()
 
 _EXPORTS = {
     "scenario": "gyro_fmu.system.scenario",

@@ -196,17 +196,21 @@ for name, var in (("RateProfile", "Omega_z"), ("GyroPlant", "x"), ("GyroObserver
 """
 
 
-def test_a_python_host_simulates_our_fmus_one_after_another(models_dir, tmp_path):
+@pytest.mark.parametrize("flavour", ["native", "pythonfmu"])
+def test_a_python_host_simulates_our_fmus_one_after_another(models_dir, pythonfmu_models,
+                                                            tmp_path, flavour):
     """fmpy.simulate_fmu of RateProfile, then GyroPlant, GyroObserver, TwoToneDrive in one
-    fresh process: each FMU ships gyro_fmu, the first one's folder is deleted after its
-    run, and the second failed with "Failed to instantiate model" until
-    gyro_fmu/fmu/shipped_copies.py found the submodules in the living copy."""
+    fresh process: each pythonfmu FMU ships gyro_fmu, the first one's folder is deleted
+    after its run, and the second failed with "Failed to instantiate model" until
+    gyro_fmu/fmu/shipped_copies.py found the submodules in the living copy (the hook a
+    copy inside an FMU installs; an installed gyro_fmu installs none)."""
     import os
     import subprocess
     import sys
 
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    proc = subprocess.run([sys.executable, "-c", _ONE_AFTER_ANOTHER, str(models_dir)],
+    folder = models_dir if flavour == "native" else pythonfmu_models
+    proc = subprocess.run([sys.executable, "-c", _ONE_AFTER_ANOTHER, str(folder)],
                           cwd=tmp_path, capture_output=True, text=True, timeout=300, env=env)
     assert proc.returncode == 0, proc.stderr[-2000:]
     lines = proc.stdout.split("\n")
