@@ -10,8 +10,8 @@ Measured in one run, interleaved so machine noise hits all alike:
 - the master alone: the same system over do-nothing FMUs compiled from C
   (compiled_null.py), so the master's own share of the floor is seen;
 - the plant step (Omega_z changing every step, and constant) and the observer step alone;
-- a fresh process running the scenario through the FMUs (imports and numba cache loads
-  included), and the peak memory (ru_maxrss) of a 1 s run with every output recorded.
+- a fresh process running the scenario through the FMUs (its imports included), and the
+  peak memory (ru_maxrss) of a 1 s run with every output recorded.
 Machines are noisy: quote ratios from one run; `uptime` is printed with the table.
 """
 
@@ -142,8 +142,7 @@ def selfcal_times(repeat: int) -> tuple[float, float, float]:
     from gyro_fmu.selfcal.sequence import SelfCalConfig, self_calibrate
 
     res, cfg = ResonatorParameters(noise=2.5e-4), SelfCalConfig()
-    # no warm-up: the loops are the C core's (a shortened calibration, once run here to
-    # compile numba kernels, is refused by the misfit alarm since the loops do not settle)
+    # no warm-up: the loops are the C core's
     walls = [_timed(lambda: self_calibrate(res, cfg)) for _ in range(repeat)]
     run_selfcal_fmus(res, LoopSettings(), 0.01)  # build if needed, load
     per_step = statistics.median(

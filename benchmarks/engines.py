@@ -6,9 +6,7 @@ Patent scenario (Table 1 corrected, Omega_z = sin(2 pi 100 t)), 4 ms and --long 
 max |a - b| / max |b| of observer.Omega_hat and plant.y for libcosim (libcosimpy) and Ecos
 (ecospy) running the SSP package, and for the container FMU through fmpy.simulate_fmu.
 Then the Ecos CLI with an empty environment (PATH and TBB's folder only): wall time of
-10 ms simulated with GyroObserver listed last, for the package as built and for one whose
-first FMU lacks the compiled kernels (how every FMU but GyroObserver was built before
-each FMU shipped every kernel): without them the process compiles the observer.
+10 ms simulated (the native FMUs need nothing from the environment).
 """
 
 from __future__ import annotations
@@ -17,7 +15,6 @@ import argparse
 import subprocess
 import tempfile
 import time
-import zipfile
 from pathlib import Path
 
 import fmpy
@@ -49,23 +46,6 @@ def agreement(stop_time: float, models: Path, work: Path) -> None:
             f"{n} {rel[n]:.2e}" for n in SIGNALS))
 
 
-def strip_kernels(ssp: Path, component_fmu: str, dest: Path) -> Path:
-    """The package with the numba caches removed from one of its FMUs."""
-    with zipfile.ZipFile(ssp) as src, zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as out:
-        for item in src.infolist():
-            data = src.read(item.filename)
-            if item.filename == component_fmu:
-                inner = dest.with_suffix(".inner.fmu")
-                with zipfile.ZipFile(src.open(item)) as f, \
-                        zipfile.ZipFile(inner, "w", zipfile.ZIP_DEFLATED) as g:
-                    for member in f.infolist():
-                        if not member.filename.endswith((".nbi", ".nbc")):
-                            g.writestr(member, f.read(member.filename))
-                data = inner.read_bytes()
-            out.writestr(item, data)
-    return dest
-
-
 def cli_wall(ssp: Path, work: Path, runs: int) -> list[float]:
     env = {"PATH": "/usr/bin:/bin", "LD_LIBRARY_PATH": str(tbb_folder())}
     cmd = [str(ecos_binary()), "simulate", "--path", str(ssp), "--stepSize", "5e-6",
@@ -93,15 +73,9 @@ def main() -> None:
         for stop in (0.004, args.long):
             agreement(stop, models, work)
         ssp = write_ssp(scenario("patent", stop_time=0.01), models, work / "p10.ssp")
-        with zipfile.ZipFile(ssp) as z:
-            first = next(n for n in z.namelist() if n.endswith(".fmu"))
-        stripped = strip_kernels(ssp, first, work / "p10_stripped.ssp")
-        print(f"Ecos CLI, empty environment, 10 ms, GyroObserver listed last "
-              f"(first FMU {first}), wall s over {args.runs} runs:")
-        for label, package in (("as built", ssp), ("first FMU without kernels", stripped)):
-            walls = cli_wall(package, work, args.runs)
-            print(f"  {label:26s} median {np.median(walls):.2f}  "
-                  f"(min {min(walls):.2f}, max {max(walls):.2f})")
+        walls = cli_wall(ssp, work, args.runs)
+        print(f"Ecos CLI, empty environment, 10 ms, wall s over {args.runs} runs: median "
+              f"{np.median(walls):.2f} (min {min(walls):.2f}, max {max(walls):.2f})")
 
 
 if __name__ == "__main__":

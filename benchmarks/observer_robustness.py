@@ -173,7 +173,7 @@ def main() -> None:
     if args.consistency:
         consistency(args.consistency)
         return
-    one_run(5e-6, 0.0, 0.1, 1.0, args.tuning, 0.0, 0)  # warm-up: numba caches loaded
+    one_run(5e-6, 0.0, 0.1, 1.0, args.tuning, 0.0, 0)  # warm-up: the FMUs unpacked and loaded
     print(f"observer robustness: default gyro, Omega_z 1 rad/s, {args.ms:g} ms, tuning "
           f"{args.tuning}, noise {args.noise:g}")
     print(f"{'h (us)':>7} {'converged':>9} {'uncertain':>9} {'refused':>7} {'warned':>6} "
