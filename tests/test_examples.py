@@ -108,3 +108,16 @@ def test_gyro_fmu_examples_copies_the_scripts_the_tutorials_run(tmp_path: Path) 
                               "ex"], cwd=tmp_path, capture_output=True, text=True)
     assert refused.returncode == 2 and "read_results.py" in refused.stderr
     assert (tmp_path / "ex" / "read_results.py").read_text() == "# mine\n"  # kept
+
+
+def test_every_tutorial_command_is_run_by_the_wheel_check_or_skipped_with_a_reason() -> None:
+    """The wheel check runs the tutorials' command lines (tutorial_snippets.py --bash); the
+    ones it skips are few and named (a study of minutes, a cluster, a user's own file)."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    from tutorial_snippets import commands, skipped
+
+    lines = [line for page in commands(EXAMPLES.parent / "docs").values() for line in page]
+    run_there = [line for line in lines if not skipped(line)]
+    assert len(run_there) >= 25 and len(lines) - len(run_there) <= 10, (len(lines),
+                                                                         len(run_there))
+    assert "tutorial_snippets.py" in (EXAMPLES.parent / ".ci" / "wheel-check").read_text()
