@@ -1,0 +1,127 @@
+"""The chain drive + rate + plant + observer per 5 us step in C, no Python per step, beside a
+yardstick measured in the same run: a 14x14 double matmul compiled here at -O2.
+
+    python benchmarks/chain_cost.py [--repeat 5] [--callgrind]
+
+The default system (park-horowitz, constant 1 rad/s, pick-off noise 1e-4) stepped by the
+C core's loop (gyro_chain.c, what `run_inprocess` calls once) with the observer's
+constant rate model and with its adaptive set of 7 (GyroObserver's default). Thread CPU
+per step from two run lengths (so that set-up cancels), min of the repeats; the same per
+naive 14x14 matmul (cc -O2, so that the figure holds across machines). --callgrind adds
+the instructions per step (valgrind, two lengths). Targets (issue "A real-time sensor
+chain"): adaptive <= 3.0 us, constant <= 0.8 us here (about 3.3 and 0.9 matmuls).
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from gyro_fmu.estimation.observer import GyroStateObserver, ObserverTuning
+from gyro_fmu.model.parameters import GyroParameters
+from gyro_fmu.model.plant import GyroPlantModel
+from gyro_fmu.system.inprocess import COLUMNS, run_chain
+from gyro_fmu.system.scenario import absolute_noise, observer_tuning, scenario
+
+LENGTHS = (4000, 16000)
+MATMUL = r"""
+void matmul14(int reps, const double *a, const double *b, double *c) {
+    for (int r = 0; r < reps; r++)
+        for (int i = 0; i < 14; i++)
+            for (int j = 0; j < 14; j++) {
+                double s = 0.0;
+                for (int k = 0; k < 14; k++) s += a[14 * i + k] * b[14 * k + j];
+                c[14 * i + j] = s + 1e-300 * c[14 * i + j];  /* each rep depends on the last */
+            }
+}
+"""
+
+
+def chain_seconds(rate_model: int, steps: int) -> float:
+    """Thread CPU seconds of one gyro_chain_run call of `steps` steps."""
+    sc = scenario("default", stop_time=steps * 5e-6, noise=1e-4).with_(
+        tuning={"rate_model": rate_model})
+    noise = absolute_noise(sc)
+    plant = GyroPlantModel(sc.params, noise, sc.seed)
+    observer = GyroStateObserver(GyroParameters(**sc.initial_guess), sc.Omega_z_0,
+                                 sc.measured_pair, ObserverTuning(**observer_tuning(sc, noise)))
+    out = np.empty((sc.n_steps + 1, len(COLUMNS)))
+    start = time.thread_time()
+    rows, code = run_chain(sc.the_drive, sc.rate, plant, observer, sc.measured_pair, sc.step,
+                           sc.n_steps, out)
+    spent = time.thread_time() - start
+    if rows != sc.n_steps + 1 or code < 0:
+        raise SystemExit(f"the chain stopped after {rows} rows (code {code})")
+    return spent
+
+
+def per_step(rate_model: int, repeat: int) -> float:
+    t1, t2 = (min(chain_seconds(rate_model, n) for _ in range(repeat)) for n in LENGTHS)
+    return (t2 - t1) / (LENGTHS[1] - LENGTHS[0])
+
+
+def matmul_seconds(folder: Path, repeat: int) -> float:
+    cc = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
+    if cc is None:
+        raise SystemExit("no C compiler for the yardstick (cc, gcc or clang)")
+    (folder / "mm.c").write_text(MATMUL)
+    subprocess.run([cc, "-O2", "-shared", "-fPIC", "-o", str(folder / "mm.so"),
+                    str(folder / "mm.c")], check=True)
+    lib = ctypes.CDLL(str(folder / "mm.so"))
+    ptr = ctypes.POINTER(ctypes.c_double)
+    a, b, c = (np.random.default_rng(i).random((14, 14)) for i in range(3))
+    args = [x.ctypes.data_as(ptr) for x in (a, b, c)]
+    reps = 20000
+    best = []
+    for _ in range(repeat):
+        start = time.thread_time()
+        lib.matmul14(reps, *args)
+        best.append((time.thread_time() - start) / reps)
+    return min(best)
+
+
+def instructions(rate_model: int) -> float:
+    """Instructions per chain step under callgrind, from the two lengths."""
+    counts = []
+    for n in LENGTHS:
+        code = (f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); "
+                f"import chain_cost; chain_cost.chain_seconds({rate_model}, {n})")
+        out = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null",
+                              sys.executable, "-c", code], capture_output=True, text=True)
+        found = re.search(r"Collected : (\d+)", out.stderr)
+        if not found:
+            raise SystemExit(f"callgrind said: {out.stderr[-500:]}")
+        counts.append(int(found.group(1)))
+    return (counts[1] - counts[0]) / (LENGTHS[1] - LENGTHS[0])
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--repeat", type=int, default=5)
+    p.add_argument("--callgrind", action="store_true")
+    a = p.parse_args()
+    with tempfile.TemporaryDirectory(prefix="gyro_fmu-chain-") as tmp:
+        mm = matmul_seconds(Path(tmp), a.repeat)
+    print(f"yardstick: a 14x14 double matmul (cc -O2) takes {mm * 1e6:.3f} us here")
+    print(f"{'observer':<22} {'us/step':>8} {'matmuls':>8} {'target':>8}"
+          + (f" {'instructions':>13}" if a.callgrind else ""))
+    for label, rate_model, target in (("constant rate model", 1, 0.8),
+                                      ("adaptive (7 models)", 0, 3.0)):
+        t = per_step(rate_model, a.repeat)
+        line = f"{label:<22} {t * 1e6:8.2f} {t / mm:8.2f} {target:8.1f}"
+        if a.callgrind:
+            line += f" {instructions(rate_model):13,.0f}"
+        print(line)
+
+
+if __name__ == "__main__":
+    main()
