@@ -3,8 +3,8 @@ on the code that computes them.
 
 `remembered(kind, inputs, code, compute)` returns compute()'s JSON-able result, from the
 cache when the same inputs met the same code before. The key is the SHA-256 of the inputs
-(as JSON) and of every file under `code` (the package folders the computation reads), so
-an edit of that code or a new version recomputes. The cache lives in
+(as JSON) and of every file under `code` (the package folders the computation reads, the
+C core's binaries included), so an edit of that code or a new build recomputes. The cache lives in
 $GYRO_FMU_CACHE_DIR, else $XDG_CACHE_HOME/gyro_fmu, else ~/.cache/gyro_fmu; a cache that
 cannot be read or written is skipped (the result is computed), never an error.
 GYRO_FMU_CACHE_DIR=off turns it off.
@@ -36,11 +36,13 @@ def cache_dir() -> Path | None:
 
 @functools.cache
 def code_digest(folders: tuple[str, ...]) -> str:
-    """SHA-256 of the package's .py files under these folders (names and contents)."""
+    """SHA-256 of every file of the package under these folders (names and contents; the
+    C core's binaries under core/ too, the byte-code caches not)."""
     sha = hashlib.sha256()
     for folder in folders:
-        for path in sorted((PACKAGE / folder).rglob("*.py")):
-            sha.update(str(path.relative_to(PACKAGE)).encode() + b"\0" + path.read_bytes())
+        for path in sorted((PACKAGE / folder).rglob("*")):
+            if path.is_file() and "__pycache__" not in path.parts:
+                sha.update(str(path.relative_to(PACKAGE)).encode() + b"\0" + path.read_bytes())
     return sha.hexdigest()
 
 

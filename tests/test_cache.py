@@ -71,3 +71,26 @@ def test_the_drive_check_is_remembered_with_its_verdict(models_dir, tmp_path, fa
     assert [s[0] for s in seen] == ["True", "True", "False"]
     assert seen[0][1] == seen[1][1] == seen[2][1]
     assert any("far from the guessed modes" in w for w in seen[0][1]) == far
+
+
+def test_the_key_follows_every_file_of_the_code_but_byte_code(tmp_path, monkeypatch):
+    """A changed source or binary (the C core's library) is a new key; a new byte-code
+    cache file is not (it would make every second run a miss)."""
+    (tmp_path / "core" / "lib").mkdir(parents=True)
+    (tmp_path / "core" / "library.py").write_text("x = 1\n")
+    (tmp_path / "core" / "lib" / "libgyro_core.so").write_bytes(b"\x7fELF one")
+    monkeypatch.setattr(cache, "PACKAGE", tmp_path)
+
+    def digest() -> str:
+        cache.code_digest.cache_clear()
+        return cache.code_digest(("core",))
+
+    first = digest()
+    (tmp_path / "core" / "__pycache__").mkdir()
+    (tmp_path / "core" / "__pycache__" / "library.cpython-311.pyc").write_bytes(b"pyc")
+    assert digest() == first
+    (tmp_path / "core" / "lib" / "libgyro_core.so").write_bytes(b"\x7fELF two")
+    second = digest()
+    (tmp_path / "core" / "library.py").write_text("x = 2\n")
+    assert len({first, second, digest()}) == 3
+    cache.code_digest.cache_clear()

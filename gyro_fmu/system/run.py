@@ -234,7 +234,8 @@ def _warn_if_drive_far(sc: Scenario) -> None:
 
     inputs = {"guess": guess.as_dict(), "drive": asdict(sc.the_drive), "Omega_z": Omega_z,
               "h": sc.step, "measured_pair": int(sc.measured_pair)}
-    text = remembered("drive-warning", inputs, ("estimation", "model"), compute)
+    # the bound's Python and the C core it calls (the plant's matrix)
+    text = remembered("drive-warning", inputs, ("estimation", "model", "core"), compute)
     if text:
         warnings.warn(text, DriveFarFromModesWarning, stacklevel=2)
 
