@@ -11,10 +11,11 @@ fmu_src/, installed inside gyro_fmu by pyproject.toml), so an installed gyro_fmu
 its FMUs as a checkout does. FMUs go to `models/` under the working directory unless
 told otherwise: never into the installation.
 
-All FMUs ship the same gyro_fmu package (without fmu_src/: each FMU carries its own
-slave as pythonfmu's top-level script): Python caches modules per process, so FMUs that
-shipped different files under one module name would silently share the first one
-loaded (docs/fmi-notes.md). Slave modules have unique names.
+Every FMU of the pythonfmu flavour ships the same gyro_fmu package (without fmu_src/:
+each carries its own slave as pythonfmu's top-level script; the native FMUs ship no
+Python): Python caches modules per process, so FMUs that shipped different files under
+one module name would silently share the first one loaded (docs/fmi-notes.md). Slave
+modules have unique names.
 """
 
 from __future__ import annotations

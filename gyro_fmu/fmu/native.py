@@ -33,21 +33,8 @@ from ..model.selfcal_interfaces import SELFCAL_INTERFACES
 from ..sensor.interface import SENSOR
 from ..sensor.platform import PLATFORM
 from .macho import universal_macho
+from .sources import DECLARATION_FILES, sources_root  # noqa: F401 - part of this API
 from .units import UNITS
-
-REPO_SOURCES = Path(__file__).resolve().parents[2] / "fmu_src"
-
-
-def sources_root() -> Path:
-    """fmu_src/ of a checkout, or gyro_fmu/fmu_src of an installation."""
-    from importlib.util import find_spec
-
-    spec = find_spec("gyro_fmu.fmu_src")
-    if spec is not None and spec.submodule_search_locations:
-        root = Path(next(iter(spec.submodule_search_locations)))
-        if (root / "core").is_dir():
-            return root
-    return REPO_SOURCES
 
 
 @dataclass(frozen=True)
@@ -96,12 +83,6 @@ NATIVE_INTERFACES: dict[str, FmuInterface] = {**PHYSICS_INTERFACES,
                                               **SELFCAL_INTERFACES,
                                               SENSOR.identifier: SENSOR,
                                               PLATFORM.identifier: PLATFORM}
-#: The modules the declarations come from (the prebuilt FMUs' staleness stamp hashes them).
-DECLARATION_FILES = ("model/interfaces.py", "model/selfcal_interfaces.py", "model/resonator.py",
-                     "model/loops.py", "estimation/interface.py",
-                     "estimation/observer_tuning.py", "estimation/observer_rate.py",
-                     "sensor/interface.py", "sensor/platform.py")
-
 
 class NativeBuildError(RuntimeError):
     """The C compiler failed or is missing."""

@@ -9,7 +9,7 @@ import hashlib
 import sys
 from pathlib import Path
 
-from .native import DECLARATION_FILES, TARGETS, build_core, build_native, sources_root
+from .sources import DECLARATION_FILES, sources_root
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1]
 #: Where the build puts the prebuilt FMUs and the core inside the package.
@@ -59,6 +59,8 @@ def build_package(force: bool = False) -> bool:
     skipped when they are current. Returns whether anything was built."""
     if not force and prebuilt_problem() is None:
         return False
+
+    from .native import TARGETS, build_core, build_native
 
     def say(text: str) -> None:  # pip shows it with -v; python -m build always
         print(f"gyro_fmu: {text}", file=sys.stderr, flush=True)

@@ -1,0 +1,28 @@
+"""Where the FMUs' sources are and which Python files declare their variables: what the
+prebuilt FMUs' stamp hashes (package.py) and the native build compiles (native.py),
+without importing the declarations (the check before every run stays light)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+REPO_SOURCES = Path(__file__).resolve().parents[2] / "fmu_src"
+
+
+def sources_root() -> Path:
+    """fmu_src/ of a checkout, or gyro_fmu/fmu_src of an installation."""
+    from importlib.util import find_spec
+
+    spec = find_spec("gyro_fmu.fmu_src")
+    if spec is not None and spec.submodule_search_locations:
+        root = Path(next(iter(spec.submodule_search_locations)))
+        if (root / "core").is_dir():
+            return root
+    return REPO_SOURCES
+
+
+#: The modules the declarations come from (the prebuilt FMUs' staleness stamp hashes them).
+DECLARATION_FILES = ("model/interfaces.py", "model/selfcal_interfaces.py", "model/resonator.py",
+                     "model/loops.py", "estimation/interface.py",
+                     "estimation/observer_tuning.py", "estimation/observer_rate.py",
+                     "sensor/interface.py", "sensor/platform.py")
