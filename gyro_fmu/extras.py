@@ -41,9 +41,7 @@ def require(module: str, extra: str, what: str | None = None) -> ModuleType:
     try:
         return importlib.import_module(module)
     except ModuleNotFoundError as exc:
-        top = module.split(".")[0]
-        if exc.name is None or exc.name.split(".")[0] != top:
-            raise  # the package is there, something it imports is broken: say that
+        _reraise_unless_absent(exc, module)
         dists, purpose = EXTRAS[extra]
         raise MissingExtraError(f"{dists} is needed for {what or purpose} and is not "
                                 f"installed here: {install_line(extra)} (or 'gyro_fmu[all]')"
@@ -55,10 +53,16 @@ def has(module: str) -> bool:
     try:
         importlib.import_module(module)
     except ModuleNotFoundError as exc:
-        if exc.name is None or exc.name.split(".")[0] != module.split(".")[0]:
-            raise
+        _reraise_unless_absent(exc, module)
         return False
     return True
+
+
+def _reraise_unless_absent(exc: ModuleNotFoundError, module: str) -> None:
+    """Raise exc again unless it says `module`'s own package is absent (a package that is
+    there but fails to import what it needs is a different error: say that one)."""
+    if exc.name is None or exc.name.split(".")[0] != module.split(".")[0]:
+        raise exc
 
 
 def pyplot(what: str = "the figures") -> ModuleType:

@@ -31,3 +31,12 @@ def to_numpy(column: pa.ChunkedArray | pa.Array) -> np.ndarray:
     if len(parts) == 1:
         return parts[0]
     return np.concatenate(parts) if parts else np.empty(0)
+
+
+def units_schema(columns: tuple[str, ...] | list[str], units: dict[str, str],
+                 metadata: dict[bytes, bytes] | None = None) -> pa.Schema:
+    """Float64 fields without nulls, each with its unit in the field's metadata ("unit"),
+    as results.parquet holds them."""
+    return pa.schema([pa.field(c, pa.float64(), nullable=False,
+                               metadata={"unit": units.get(c, "")}) for c in columns],
+                     metadata=metadata)

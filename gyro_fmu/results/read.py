@@ -176,11 +176,8 @@ def read_arrow(path: Path):
     if path.suffix == ".parquet":
         return _parquet(path).read()
     pa = require("pyarrow", "parquet")
-    from .arrow import to_arrow
+    from .arrow import to_arrow, units_schema
 
-    table, units = read_results(path), units_of(path)
-    return pa.Table.from_arrays(
-        [to_arrow(table[n]) for n in table.dtype.names],
-        schema=pa.schema([pa.field(n, pa.float64(), nullable=False,
-                                   metadata={"unit": units.get(n, "")})
-                          for n in table.dtype.names]))
+    table = read_results(path)
+    return pa.Table.from_arrays([to_arrow(table[n]) for n in table.dtype.names],
+                                schema=units_schema(table.dtype.names, units_of(path)))

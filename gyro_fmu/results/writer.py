@@ -105,18 +105,17 @@ class ResultFiles:
             raise self._error(exc) from exc
 
     def _begin_arrow(self) -> None:
-        import pyarrow as pa
         import pyarrow.csv as pcsv
         import pyarrow.parquet as pq
+
+        from .arrow import units_schema
 
         meta = {"run_id": self.run_id, "units": self.units}
         # PANDAS_ATTRS: pandas (2.1 and later) puts it into DataFrame.attrs on
         # read_parquet, so df.attrs["units"] holds each column's unit
-        self._schema = pa.schema([pa.field(c, pa.float64(), nullable=False,
-                                           metadata={"unit": self.units[c]})
-                                  for c in self.columns],
-                                 metadata={METADATA_KEY: json.dumps(meta).encode(),
-                                           b"PANDAS_ATTRS": json.dumps(meta).encode()})
+        self._schema = units_schema(self.columns, self.units,
+                                    {METADATA_KEY: json.dumps(meta).encode(),
+                                     b"PANDAS_ATTRS": json.dumps(meta).encode()})
         self._csv_writer = pcsv.CSVWriter(self._csv, self._schema,
                                           write_options=pcsv.WriteOptions(include_header=False))
         if self.parquet:
