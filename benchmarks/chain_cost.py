@@ -6,9 +6,12 @@ yardstick measured in the same run: a 14x14 double matmul compiled here at -O2.
 The default system (park-horowitz, constant 1 rad/s, pick-off noise 1e-4) stepped by the
 C core's loop (gyro_chain.c, what `run_inprocess` calls once) with the observer's
 constant rate model and with its adaptive set of 7 (GyroObserver's default). Thread CPU
-per step from two run lengths (so that set-up cancels), min of the repeats; the same per
-naive 14x14 matmul (cc -O2, so that the figure holds across machines). --callgrind adds
-the instructions per step (valgrind, two lengths). Targets (issue "A real-time sensor
+per step from two run lengths (so that set-up cancels), min of the repeats, in two
+windows: while the filter converges (steps 4,000-16,000: 20-80 ms) and once converged
+(40,000-100,000: 0.2-0.5 s), where the held step's maps are reused
+(docs/results/performance.md); the same per naive 14x14 matmul (cc -O2, so that the
+figure holds across machines). --callgrind adds the instructions per step (valgrind,
+two lengths: 4,000-16,000 and 40,000-44,000). Targets (issue "A real-time sensor
 chain"): adaptive <= 3.0 us, constant <= 0.8 us here (about 3.3 and 0.9 matmuls).
 """
 
@@ -32,7 +35,9 @@ from gyro_fmu.model.plant import GyroPlantModel
 from gyro_fmu.system.inprocess import COLUMNS, run_chain
 from gyro_fmu.system.scenario import absolute_noise, observer_tuning, scenario
 
-LENGTHS = (4000, 16000)
+#: Windows of steps: (label, the two run lengths timed, the two under callgrind).
+WINDOWS = (("converging", (4000, 16000), (4000, 16000)),
+           ("converged", (40000, 100000), (40000, 44000)))
 MATMUL = r"""
 void matmul14(int reps, const double *a, const double *b, double *c) {
     for (int r = 0; r < reps; r++)
@@ -64,9 +69,9 @@ def chain_seconds(rate_model: int, steps: int) -> float:
     return spent
 
 
-def per_step(rate_model: int, repeat: int) -> float:
-    t1, t2 = (min(chain_seconds(rate_model, n) for _ in range(repeat)) for n in LENGTHS)
-    return (t2 - t1) / (LENGTHS[1] - LENGTHS[0])
+def per_step(rate_model: int, repeat: int, lengths: tuple[int, int]) -> float:
+    t1, t2 = (min(chain_seconds(rate_model, n) for _ in range(repeat)) for n in lengths)
+    return (t2 - t1) / (lengths[1] - lengths[0])
 
 
 def matmul_seconds(folder: Path, repeat: int) -> float:
@@ -89,10 +94,10 @@ def matmul_seconds(folder: Path, repeat: int) -> float:
     return min(best)
 
 
-def instructions(rate_model: int) -> float:
+def instructions(rate_model: int, lengths: tuple[int, int]) -> float:
     """Instructions per chain step under callgrind, from the two lengths."""
     counts = []
-    for n in LENGTHS:
+    for n in lengths:
         code = (f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); "
                 f"import chain_cost; chain_cost.chain_seconds({rate_model}, {n})")
         out = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null",
@@ -101,7 +106,7 @@ def instructions(rate_model: int) -> float:
         if not found:
             raise SystemExit(f"callgrind said: {out.stderr[-500:]}")
         counts.append(int(found.group(1)))
-    return (counts[1] - counts[0]) / (LENGTHS[1] - LENGTHS[0])
+    return (counts[1] - counts[0]) / (lengths[1] - lengths[0])
 
 
 def main() -> None:
@@ -112,15 +117,16 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="gyro_fmu-chain-") as tmp:
         mm = matmul_seconds(Path(tmp), a.repeat)
     print(f"yardstick: a 14x14 double matmul (cc -O2) takes {mm * 1e6:.3f} us here")
-    print(f"{'observer':<22} {'us/step':>8} {'matmuls':>8} {'target':>8}"
+    print(f"{'observer':<22} {'window':<11} {'us/step':>8} {'matmuls':>8} {'target':>8}"
           + (f" {'instructions':>13}" if a.callgrind else ""))
     for label, rate_model, target in (("constant rate model", 1, 0.8),
                                       ("adaptive (7 models)", 0, 3.0)):
-        t = per_step(rate_model, a.repeat)
-        line = f"{label:<22} {t * 1e6:8.2f} {t / mm:8.2f} {target:8.1f}"
-        if a.callgrind:
-            line += f" {instructions(rate_model):13,.0f}"
-        print(line)
+        for window, lengths, counted in WINDOWS:
+            t = per_step(rate_model, a.repeat, lengths)
+            line = f"{label:<22} {window:<11} {t * 1e6:8.2f} {t / mm:8.2f} {target:8.1f}"
+            if a.callgrind:
+                line += f" {instructions(rate_model, counted):13,.0f}"
+            print(line, flush=True)
 
 
 if __name__ == "__main__":

@@ -104,6 +104,38 @@ def random_gyro(rng: np.random.Generator) -> GyroParameters:
         m=math.exp(rng.uniform(math.log(1e-9), math.log(4e-7))))
 
 
+def wide_gyro(rng: np.random.Generator) -> GyroParameters:
+    """A gyro of the wide set (issue 44): x mode 1-30 kHz, y mode 0.1-20 % above or below
+    it, Q 1e2-1e5 per axis, cross stiffness and cross damping up to 20 % of
+    sqrt(kxx kyy) and sqrt(dxx dyy), mass 1e-10-1e-6 kg (each log-uniform or uniform)."""
+    def log_uniform(lo: float, hi: float) -> float:
+        return math.exp(rng.uniform(math.log(lo), math.log(hi)))
+
+    fx = log_uniform(1e3, 3e4)
+    fy = fx * (1 + rng.choice([-1, 1]) * log_uniform(1e-3, 0.2))
+    wx, wy = 2 * math.pi * fx, 2 * math.pi * fy
+    dxx, dyy = wx / log_uniform(1e2, 1e5), wy / log_uniform(1e2, 1e5)
+    return GyroParameters(
+        kxx=wx**2, kyy=wy**2, kxy=rng.uniform(-0.2, 0.2) * wx * wy,
+        dxx=dxx, dyy=dyy, dxy=rng.uniform(-0.2, 0.2) * math.sqrt(dxx * dyy),
+        m=log_uniform(1e-10, 1e-6))
+
+
+def gyro_class(p: GyroParameters, designed: bool) -> str:
+    """The wide set's classes: Q of the lower-Q axis (below 1e3, to 1e4, above) and whether
+    the drive was designed for the gyro."""
+    q = min(math.sqrt(p.kxx) / p.dxx, math.sqrt(p.kyy) / p.dyy)
+    band = "Q<1e3" if q < 1e3 else ("Q 1e3-1e4" if q < 1e4 else "Q>1e4")
+    return f"{band}, {'designed' if designed else 'default'} drive"
+
+
+def designed_drive(p: GyroParameters) -> TwoToneDrive:
+    """Tones around the guessed modes, as the run's drive check proposes them."""
+    from gyro_fmu.estimation.excitation import drive_information_loss
+
+    return drive_information_loss(p, TwoToneDrive(), h=H)[1]
+
+
 def rate_samples(family: str, n: int, rng: np.random.Generator) -> np.ndarray:
     """Omega_z at t_0 .. t_n (held over each step by the plant)."""
     t = np.arange(n + 1) * H
@@ -195,12 +227,14 @@ class Run:
     crb: float | None = None  # constant: the batch CRB of Omega_z at the end (rest known)
     crb_free: float | None = None  # and with the starting state unknown too
     floor: float | None = None  # RMS over the window of crb_free (constant rate)
+    label: str = ""  # the gyro's class (--set wide)
 
 
 def one_gyro(obs: ObserverFMU, g: int, p: GyroParameters, families, noises, seeds, n,
-             bound: bool, ideal: bool = False, crb: bool = False) -> list[Run]:
+             bound: bool, ideal: bool = False, crb: bool = False,
+             drive: TwoToneDrive | None = None, label: str = "") -> list[Run]:
     rng = np.random.default_rng(1000 + g)
-    drive = TwoToneDrive()
+    drive = drive or TwoToneDrive()
     t = np.arange(n) * H
     unit = np.array([drive.ux(tk) for tk in t])
     constant = plant_run(p, unit, np.ones(n))
@@ -226,7 +260,7 @@ def one_gyro(obs: ObserverFMU, g: int, p: GyroParameters, families, noises, seed
                 told = {"sigma_z1": std[0], "sigma_z2": std[1]} if TOLD_NOISE else {}
                 out = obs.run({**guess, **told}, u, z)
                 run = Run(family, noise, g, seed, out[:, 0] - Omega[1:], out[:, 1],
-                          out[:, 2].astype(int), t + H)
+                          out[:, 2].astype(int), t + H, label=label)
                 if unstepped is not None:
                     run.detector = detector_delay(s, unstepped, std, t)
                 if crb and family == "constant":
@@ -395,25 +429,35 @@ def main() -> int:
     ap.add_argument("--ideal", action="store_true",
                     help="beside each run, a filter that knows the gyro and the noise")
     ap.add_argument("--gyro-seed", type=int, default=2026)
+    ap.add_argument("--set", choices=("families", "wide"), default="families",
+                    help="families: random gyros 2-20 kHz, the default drive; wide: modes "
+                         "1-30 kHz, Q 1e2-1e5, splits 0.1-20 %%, couplings to 20 %%, masses "
+                         "1e-10-1e-6 kg, every other gyro driven by tones designed for it, "
+                         "judged per class (gyro_class)")
     args = ap.parse_args()
     TUNING.update({k: float(v) for k, v in (item.split("=", 1) for item in args.tuning)})
     global TOLD_NOISE
     TOLD_NOISE = args.told_noise
     n = round(args.stop_time / H)
     rng = np.random.default_rng(args.gyro_seed)
-    gyros = [random_gyro(rng) for _ in range(args.gyros)]
+    wide = args.set == "wide"
+    gyros = [(wide_gyro if wide else random_gyro)(rng) for _ in range(args.gyros)]
+    drives = [designed_drive(p) if wide and g % 2 == 0 else TwoToneDrive()
+              for g, p in enumerate(gyros)]
+    labels = [gyro_class(p, g % 2 == 0) if wide else "" for g, p in enumerate(gyros)]
     for g, p in enumerate(gyros):
         fx, fy = (math.sqrt(k) / 2 / math.pi for k in (p.kxx, p.kyy))
         print(f"gyro {g}: {fx:7.0f} / {fy:7.0f} Hz, Q {math.sqrt(p.kxx) / p.dxx:8.3g} / "
               f"{math.sqrt(p.kyy) / p.dyy:8.3g}, kxy/sqrt(kxx kyy) "
-              f"{p.kxy / math.sqrt(p.kxx * p.kyy):+.3f}, m {p.m:.2g} kg")
+              f"{p.kxy / math.sqrt(p.kxx * p.kyy):+.3f}, m {p.m:.2g} kg, drive "
+              f"{drives[g].f1:.0f} + {drives[g].f2:.0f} Hz")
     obs = ObserverFMU(prebuilt_fmu("GyroObserver"))
     start = time.perf_counter()
     runs: list[Run] = []
     try:
         for g, p in enumerate(gyros):
             runs += one_gyro(obs, g, p, args.families, args.noise, args.seeds, n, args.bound,
-                             args.ideal, args.crb)
+                             args.ideal, args.crb, drives[g], labels[g])
     finally:
         obs.close()
     wall = time.perf_counter() - start
@@ -461,7 +505,27 @@ def main() -> int:
                       + "; err/(ideal+floor): "
                       + " ".join(f"{x['err/(ideal+floor)']:.2f}" for x in per))
     print(f"runs more than 4 sigma off at the end with status 0: {total_end} of {total}")
+    if wide:
+        by_class(runs, args.families)
     return 0
+
+
+def by_class(runs: list[Run], families) -> None:
+    """The wide set per class of gyro and family, noises pooled; the worst gyro's e/s."""
+    print(f"\n{'class':<30} {'family':<9} {'runs':>4} {'e/s':>6} {'>3s':>7} {'end>4s':>6} "
+          f"{'worst':>7} {'flag':>4} {'worst gyro e/s':>15}")
+    for label in sorted({r.label for r in runs}):
+        for family in families:
+            mine = [r for r in runs if r.label == label and r.family == family]
+            if not mine:
+                continue
+            s = summarize(mine)
+            per = {g: summarize([r for r in mine if r.gyro == g])["e/s"]
+                   for g in sorted({r.gyro for r in mine})}
+            g_worst = max(per, key=per.get)
+            print(f"{label:<30} {family:<9} {s['runs']:>4} {s['e/s']:>6.2f} {s['>3s']:>7.2%} "
+                  f"{s['end>4s']:>6} {s['worst_end']:>7.1f} {s['flag']:>4} "
+                  f"{per[g_worst]:>9.2f} (g{g_worst})")
 
 
 if __name__ == "__main__":

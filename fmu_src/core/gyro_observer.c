@@ -123,6 +123,7 @@ void gyro_observer_set_scaling(GyroObserver *o, double wx, double wy,
     lim->corr_warn = CORR_WARN;
     lim->nis_min = NIS_MIN;
     o->h_cached = -1.0; /* the rate models are rebuilt at the next step */
+    obs_held_reset(o);
 }
 
 int gyro_observer_init(GyroObserver *o, const GyroParams *guess, double Omega_z_0, int pair,
@@ -429,10 +430,20 @@ int gyro_observer_restored_problem(GyroObserver *o, const GyroParams *guess,
         return 1;
     }
     const char *bad = restored_state_problem(o);
+    if (!bad) bad = obs_held_restored(o);
     if (bad) {
         snprintf(msg, n, "the saved observer holds %s: restore a state this FMU saved", bad);
         return 1;
     }
     o->h_cached = -1.0; /* the rate models (Fr, Qr, Pi, qpar) are rebuilt at the next step */
     return 0;
+}
+
+int gyro_observer_held_restored(GyroObserver *o, char *msg, size_t n) {
+    const char *bad = obs_held_restored(o);
+    if (n) msg[0] = '\0';
+    if (!bad) return 0;
+    snprintf(msg, n, "the saved observer holds %s: restore a state this observer saved", bad);
+    obs_held_reset(o);
+    return 1;
 }

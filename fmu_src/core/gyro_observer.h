@@ -93,6 +93,24 @@ typedef struct {
     double pending;      /* 1: the last judged window rejected the estimate; the next judges */
 } GyroRefit;
 
+/* The held step's maps at one linearization point xc (the scaled parameters and Omega_z,
+ * filter rows IPAR..IOM) and step h, reused while the filter's point stays near xc
+ * (gyro_observer_held.c). Every map is linear in [s, ux, uy]:
+ * s1 = Phi s + psi u and S = sum_k s_k Sk[k] + ux Sk[4] + uy Sk[5], and Sk[k][i][q] =
+ * dPhi[i][k]/dx_q, so a move dx from xc is corrected to first order. */
+typedef struct {
+    double valid;        /* 1: the maps hold at (xc, h) */
+    double h;            /* the step they were built for */
+    double xc[8];        /* where they were built (or, not valid yet, where steadiness began) */
+    double steady;       /* consecutive linearizations within tol of xc */
+    double tol;          /* reuse while ||dA_aug h||_inf <= tol (0: never reuse) */
+    double reused, built; /* linearizations from the maps; builds of them (statistics) */
+    double norm[8];      /* ||dA_aug/dx_q h||_inf without the force's part */
+    double Phi[4][4];
+    double psi[2][4];    /* s1 per unit ux, uy */
+    double Sk[6][4][8];  /* S per unit s_0..s_3, ux, uy */
+} GyroObsHeld;
+
 /* What one observer is: constants of its scaling, the rate models of the current step
  * and its state. A plain struct (no pointers): an FMU state is a copy of it. */
 typedef struct {
@@ -126,6 +144,7 @@ typedef struct {
     GyroMonitor mon;
     GyroRefit refit;
     double t;                 /* s since construction */
+    GyroObsHeld held;        /* the held step's reusable maps (a cache: reset on restore) */
     char lost_message[GYRO_OBS_MESSAGE];
 } GyroObserver;
 
@@ -206,6 +225,11 @@ int gyro_observer_warning(const GyroObserver *o, char *msg, size_t n);
 int gyro_observer_restored_problem(GyroObserver *o, const GyroParams *guess,
                                    double Omega_z_0, int pair, const GyroObserverTuning *tun,
                                    char *msg, size_t n);
+
+/* After the held-step cache's watch fields (valid, h, xc, steady, tol) were restored into a
+ * set-up observer: rebuild its maps (the same bits as the saved ones). Nonzero, a message
+ * and an empty cache when those fields are out of range. */
+int gyro_observer_held_restored(GyroObserver *o, char *msg, size_t n);
 
 /* Set the constants of the filter's scaling (wx, wy, theta0, scale) and what derives from
  * them (hgain, MgT, monitor limits); gyro_observer_init does it from the guess, a restored

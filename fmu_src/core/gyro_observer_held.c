@@ -364,10 +364,130 @@ void gyro_observer_held_step(const GyroObserver *o, const double theta[GYRO_OBS_
     held_step_split(xi0, Ah, h, MgT, s1, Phi, S);
 }
 
-/* The held step of x's plant state at x's parameters and Omega_z (the linearization). */
-void obs_linearize(const GyroObserver *o, const double *x, double ux, double uy, double h,
-                      double s1[4], double Phi[4][4], double S[4][8]) {
+/* ||dA_aug h||_inf for a move of the filter's point from the maps' xc, by the triangle
+ * inequality over the 8 coordinates (dA_aug is linear in the move; rows 1 and 3 only). */
+static double held_move(const GyroObserver *o, const double *x, double ux, double uy,
+                        double h) {
+    const GyroObsHeld *c = &o->held;
+    const double force = o->scale[6] * dmax(fabs(ux) / o->wx, fabs(uy) / o->wy) * h;
+    double bound = 0.0;
+    for (int q = 0; q < 8; q++)
+        bound += fabs(x[IPAR + q] - c->xc[q]) * (c->norm[q] + (q == 6 ? force : 0.0));
+    return bound;
+}
+
+/* Start watching a new point: xc = x's, the maps not valid, the norms for h. */
+static void held_watch(GyroObserver *o, const double *x, double h) {
+    GyroObsHeld *c = &o->held;
+    c->valid = 0.0;
+    c->steady = 0.0;
+    c->h = h;
+    memcpy(c->xc, x + IPAR, sizeof c->xc);
+    for (int q = 0; q < 8; q++) {
+        double r1 = 0.0, r3 = 0.0;
+        for (int a = 0; a < 4; a++) r1 += fabs(o->MgT[a][q]), r3 += fabs(o->MgT[a][8 + q]);
+        c->norm[q] = dmax(r1, r3) * h;
+    }
+}
+
+/* The maps at (xc, h): six exact held steps, one per unit coordinate of [s, ux, uy] (the
+ * held step is linear in them). 0 when a map is not finite (the maps stay not valid). */
+static int held_build(GyroObserver *o) {
+    GyroObsHeld *c = &o->held;
+    double theta[GYRO_OBS_NPAR], s1[4], Phi[4][4];
+    for (int i = 0; i < GYRO_OBS_NPAR; i++) theta[i] = o->theta0[i] + o->scale[i] * c->xc[i];
+    for (int k = 0; k < 6; k++) {
+        double s[4] = {0.0, 0.0, 0.0, 0.0};
+        if (k < 4) s[k] = 1.0;
+        gyro_observer_held_step(o, theta, c->xc[7], s, k == 4, k == 5, c->h, s1, Phi, c->Sk[k]);
+        if (k < 4) memcpy(c->Phi, Phi, sizeof Phi);
+        else memcpy(c->psi[k - 4], s1, sizeof s1);
+    }
+    int finite = 1;
+    for (const double *v = &c->Phi[0][0]; v < &c->Sk[0][0][0] + 6 * 32; v++)
+        finite &= isfinite(*v) != 0;
+    c->valid = finite;
+    return finite;
+}
+
+/* The held step from the maps, corrected to first order for d = x - xc: S at xc from [s, u];
+ * Phi + dPhi/dx d; s1 = Phi_c s + psi u + S d (the neglected terms are O(||dA_aug h||^2)). */
+static void held_reuse(const GyroObsHeld *c, const double *x, double ux, double uy,
+                       double s1[4], double Phi[4][4], double S[4][8]) {
+    const double w[6] = {x[0], x[1], x[2], x[3], ux, uy};
+    double d[8];
+    for (int q = 0; q < 8; q++) d[q] = x[IPAR + q] - c->xc[q];
+    for (int i = 0; i < 4; i++) {
+        double acc[8] = {0.0};
+        for (int k = 0; k < 6; k++)
+            for (int q = 0; q < 8; q++) acc[q] += w[k] * c->Sk[k][i][q];
+        memcpy(S[i], acc, sizeof acc);
+        double e = c->psi[0][i] * ux + c->psi[1][i] * uy;
+        for (int k = 0; k < 4; k++) {
+            double dphi = 0.0;
+            for (int q = 0; q < 8; q++) dphi += c->Sk[k][i][q] * d[q];
+            Phi[i][k] = c->Phi[i][k] + dphi;
+            e += c->Phi[i][k] * x[k];
+        }
+        for (int q = 0; q < 8; q++) e += acc[q] * d[q];
+        s1[i] = e;
+    }
+}
+
+/* The held step of x's plant state at x's parameters and Omega_z (the linearization).
+ * Converged parameters move 1e-16 to 1e-12 relative a step, so the maps are built once the
+ * point has stayed within HELD_TOL of one xc for HELD_STEADY steps and reused while it
+ * stays there (docs/observer-speed.md); otherwise the exact held step. */
+void obs_linearize(GyroObserver *o, const double *x, double ux, double uy, double h,
+                   double s1[4], double Phi[4][4], double S[4][8]) {
+    GyroObsHeld *c = &o->held;
+    if (c->tol > 0.0) {
+        const double move = c->h == h ? held_move(o, x, ux, uy, h) : INFINITY;
+        if (c->valid && move <= c->tol) {
+            c->reused += 1.0;
+            held_reuse(c, x, ux, uy, s1, Phi, S);
+            return;
+        }
+        if (move <= c->tol) {
+            c->steady += 1.0;
+        } else {
+            held_watch(o, x, h);
+        }
+        if (c->steady >= HELD_STEADY) {
+            held_watch(o, x, h);
+            c->built += 1.0;
+            if (held_build(o)) {
+                c->reused += 1.0;
+                held_reuse(c, x, ux, uy, s1, Phi, S);
+                return;
+            }
+        }
+    }
     double theta[GYRO_OBS_NPAR];
     for (int i = 0; i < GYRO_OBS_NPAR; i++) theta[i] = o->theta0[i] + o->scale[i] * x[IPAR + i];
     gyro_observer_held_step(o, theta, x[IOM], x, ux, uy, h, s1, Phi, S);
+}
+
+void obs_held_reset(GyroObserver *o) {
+    GyroObsHeld *c = &o->held;
+    memset(c, 0, sizeof *c);
+    c->tol = HELD_TOL;
+    c->h = -1.0;
+}
+
+const char *obs_held_restored(GyroObserver *o) {
+    GyroObsHeld *c = &o->held;
+    if (!(c->tol == 0.0 || c->tol == HELD_TOL) || !(c->valid == 0.0 || c->valid == 1.0) ||
+        !(c->steady >= 0.0 && c->steady <= HELD_STEADY) || !isfinite(c->h))
+        return "a held-step cache out of its range";
+    for (int q = 0; q < 8; q++)
+        if (!isfinite(c->xc[q])) return "a held-step cache not finite";
+    /* the maps and norms are rebuilt from (xc, h): the same bits as the saved ones */
+    const double valid = c->valid, steady = c->steady;
+    double xc[IPAR + 8];
+    memcpy(xc + IPAR, c->xc, sizeof c->xc);
+    if (c->h > 0.0) held_watch(o, xc, c->h);
+    c->steady = steady;
+    if (valid == 1.0 && !(c->h > 0.0 && held_build(o))) return "a held-step cache not valid";
+    return NULL;
 }

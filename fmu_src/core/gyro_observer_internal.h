@@ -79,6 +79,13 @@ static const double INNOV_TAU_START = 1e-3;
  * measured on good runs in docs/observer-soundness.md). */
 static const double REFIT_TAU = 0.02;
 static const double REFIT_WARN = 40.0;
+/* Held-step reuse (gyro_observer_held.c): the maps are rebuilt once the linearization
+ * point moves so far that ||dA_aug h||_inf > HELD_TOL. The first-order correction leaves
+ * O(HELD_TOL^2) = 1e-16 in the predicted state, within rounding; Phi's and S's sensitivity
+ * to the covariance is O(HELD_TOL) relative (docs/observer-speed.md measures both). Maps are
+ * built after HELD_STEADY steps within HELD_TOL of one point (no build while converging). */
+static const double HELD_TOL = 1e-8;
+static const double HELD_STEADY = 8.0;
 /* kxx, kyy and 1/m must stay within this factor of their initial guesses. */
 static const double RATIO = 100.0;
 
@@ -90,8 +97,10 @@ static inline double dmax(double a, double b) { return a >= b ? a : b; }
 static inline double dmin(double a, double b) { return a <= b ? a : b; }
 
 /* gyro_observer_held.c */
-void obs_linearize(const GyroObserver *o, const double *x, double ux, double uy, double h,
+void obs_linearize(GyroObserver *o, const double *x, double ux, double uy, double h,
                    double s1[4], double Phi[4][4], double S[4][8]);
+void obs_held_reset(GyroObserver *o);
+const char *obs_held_restored(GyroObserver *o);
 
 /* gyro_observer_correct.c */
 void obs_noise_variances(GyroObserver *o, double z1, double z2, double h, double R[2],

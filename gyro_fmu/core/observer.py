@@ -51,6 +51,13 @@ class Refit(ctypes.Structure):
                 ("pending", _D)]
 
 
+class HeldMaps(ctypes.Structure):
+    _fields_ = [("valid", _D), ("h", _D), ("xc", _D * 8), ("steady", _D), ("tol", _D),
+                ("reused", _D), ("built", _D),
+                ("norm", _D * 8), ("Phi", _D * 4 * 4), ("psi", _D * 4 * 2),
+                ("Sk", _D * 8 * 4 * 6)]
+
+
 class Observer(ctypes.Structure):
     _fields_ = [("tuning", Tuning),
                 *((n, c_int32) for n in ("pair", "n", "order", "n_models", "i0", "auto_prior",
@@ -63,7 +70,7 @@ class Observer(ctypes.Structure):
                 ("x", _D * NMAX), ("P", _D * NMAX * NMAX), ("xs", _D * NMAX * MMAX),
                 ("Ps", _D * NMAX * NMAX * MMAX), ("mu", _D * MMAX), ("c", _D * MMAX),
                 ("peak", _D * 2), ("nu2", _D * 2), ("mon", Monitor), ("refit", Refit),
-                ("t", _D),
+                ("t", _D), ("held", HeldMaps),
                 ("lost_message", c_char * 1024)]
 
 
@@ -86,6 +93,7 @@ FUNCTIONS = {
     "gyro_observer_step_warning": (c_int, [_O, _D, c_char_p, c_size_t]),
     "gyro_observer_set_scaling": (None, [_O, _D, _D, _DP, _DP]),
     "gyro_observer_set_step": (None, [_O, _D]),
+    "gyro_observer_held_restored": (c_int, [_O, c_char_p, c_size_t]),
     "gyro_observer_cholesky_ok": (c_int, [_DP, c_int]),
     "gyro_observer_factorial": (_D, [c_int]),
     "gyro_observer_beta": (_D, [c_int, c_int]),

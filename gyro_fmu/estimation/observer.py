@@ -34,6 +34,8 @@ __all__ = ["CoarseStepWarning", "GyroStateObserver", "ObserverDivergedError",
            "ObserverStepError", "ObserverTuning"]
 
 _STATE_VERSION = 4
+#: The held-step cache's watch fields a state keeps (its maps are rebuilt from them).
+_HELD_FIELDS = ("valid", "h", "xc", "steady", "tol")
 _REFIT_ARRAYS = ("W", "g", "F", "shift", "move")  #: the re-fit test's array fields
 N_PAR = cobs.NPAR  #: kxx, kyy, kxy, dxx, dyy, dxy, b = 1/m
 I_PAR = cobs.IPAR  #: filter-state row of the first parameter
@@ -332,6 +334,8 @@ class GyroStateObserver:
                       if name in _REFIT_ARRAYS else getattr(self._c.refit, name)
                       for name, _ in type(self._c.refit)._fields_},
             "t": self.t,
+            "held": {name: np.ctypeslib.as_array(getattr(self._c.held, name)).tolist()
+                     if name == "xc" else getattr(self._c.held, name) for name in _HELD_FIELDS},
         }
 
     def set_state(self, state: dict) -> None:
@@ -407,6 +411,19 @@ class GyroStateObserver:
             else:
                 setattr(c.refit, name, float(value))
         c.t = float(state["t"])
+        held = state.get("held")  # absent in states saved before the cache: it starts empty
+        if held is not None:
+            if not isinstance(held, dict) or set(held) != set(_HELD_FIELDS):
+                raise ValueError(f"observer state held {held!r}: expected the held-step "
+                                 f"cache's fields {', '.join(_HELD_FIELDS)}")
+            for name in _HELD_FIELDS:
+                if name == "xc":
+                    c.held.xc[:] = [float(v) for v in held[name]]
+                else:
+                    setattr(c.held, name, float(held[name]))
+            if other._lib.gyro_observer_held_restored(ctypes.byref(c), other._msg,
+                                                      len(other._msg)):
+                raise ValueError(other._msg.value.decode())
         self._c, self._ref, self._lib, self._msg = c, ctypes.byref(c), other._lib, other._msg
         self.tuning, self.measured_pair, self.rate_models = tuning, pair, other.rate_models
 
