@@ -122,11 +122,11 @@ def wide_gyro(rng: np.random.Generator) -> GyroParameters:
 
 
 def gyro_class(p: GyroParameters, designed: bool) -> str:
-    """The wide set's classes: Q of the lower-Q axis (below 1e3, to 1e4, above) and whether
-    the drive was designed for the gyro."""
-    q = min(math.sqrt(p.kxx) / p.dxx, math.sqrt(p.kyy) / p.dyy)
+    """The wide set's classes: the geometric mean of the two axes' Q (below 1e3, to 1e4,
+    above) and whether the drive was designed for the gyro."""
+    q = math.sqrt(math.sqrt(p.kxx) / p.dxx * math.sqrt(p.kyy) / p.dyy)
     band = "Q<1e3" if q < 1e3 else ("Q 1e3-1e4" if q < 1e4 else "Q>1e4")
-    return f"{band}, {'designed' if designed else 'default'} drive"
+    return f"{band}, {'designed' if designed else 'plain'} drive"
 
 
 def designed_drive(p: GyroParameters) -> TwoToneDrive:
@@ -434,6 +434,9 @@ def main() -> int:
                          "1-30 kHz, Q 1e2-1e5, splits 0.1-20 %%, couplings to 20 %%, masses "
                          "1e-10-1e-6 kg, every other gyro driven by tones designed for it, "
                          "judged per class (gyro_class)")
+    ap.add_argument("--drive", type=float, nargs=2, metavar=("F1", "F2"),
+                    help="tones (Hz) of the drive not designed for the gyro (default: "
+                         "TwoToneDrive's 4000 + 1200)")
     args = ap.parse_args()
     TUNING.update({k: float(v) for k, v in (item.split("=", 1) for item in args.tuning)})
     global TOLD_NOISE
@@ -442,7 +445,8 @@ def main() -> int:
     rng = np.random.default_rng(args.gyro_seed)
     wide = args.set == "wide"
     gyros = [(wide_gyro if wide else random_gyro)(rng) for _ in range(args.gyros)]
-    drives = [designed_drive(p) if wide and g % 2 == 0 else TwoToneDrive()
+    plain = TwoToneDrive(f1=args.drive[0], f2=args.drive[1]) if args.drive else TwoToneDrive()
+    drives = [designed_drive(p) if wide and g % 2 == 0 else plain
               for g, p in enumerate(gyros)]
     labels = [gyro_class(p, g % 2 == 0) if wide else "" for g, p in enumerate(gyros)]
     for g, p in enumerate(gyros):

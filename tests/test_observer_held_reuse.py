@@ -2,7 +2,7 @@
 the maps are built at one point and reused, corrected to first order, while the
 linearization point stays within ||dA_aug h|| <= 1e-8 of it.
 
-Tolerances (docs/observer-speed.md). On the default system over 1 s, reuse moved every
+Tolerances (docs/results/performance.md). On the default system over 1 s, reuse moved every
 output by at most 2.1e-11 of its peak and Omega_hat by 1.8e-8 of its own sigma; the same
 exact filter with kxx_0 one ulp off moved them by 1.2e-12 and 1.0e-10. The tests allow
 50x the reuse's measured effect: a wrong map, a wrong correction or a cache that outlives

@@ -53,7 +53,7 @@ double obs_correct_with(const GyroObserver *o, double *x, double P[NMAX][NMAX], 
     const double s00 = d / det, s01 = -b_ / det, s10 = -c / det, s11 = a / det;
     /* the gain's two columns K0, K1 and P H' as separate rows: the loops over j below run
      * over contiguous memory (vectorized) with every expression as it was */
-    double PHt0[NMAX], PHt1[NMAX], K0[NMAX], K1[NMAX];
+    double PHt0[NMAX] = {0.0}, PHt1[NMAX] = {0.0}, K0[NMAX] = {0.0}, K1[NMAX] = {0.0};
     for (int i = 0; i < n; i++) {
         PHt0[i] = P[i][i0] * g0;
         PHt1[i] = P[i][i1] * g1;
@@ -64,15 +64,17 @@ double obs_correct_with(const GyroObserver *o, double *x, double P[NMAX][NMAX], 
         x[i] = x[i] + (K0[i] * nu0 + K1[i] * nu1);
     }
     if (o->tuning.joseph) { /* (I - K H) P (I - K H)' + K R K', O(n^2): H picks i0, i1 */
+        /* rows over all NMAX columns: a fixed length the compiler vectorizes (columns past
+         * n are zeros, kept zeros); every element's expression as before */
         double M[NMAX][NMAX];
         for (int i = 0; i < n; i++) {
             const double k0 = K0[i] * g0, k1 = K1[i] * g1;
-            for (int j = 0; j < n; j++) M[i][j] = P[i][j] - (k0 * P[i0][j] + k1 * P[i1][j]);
+            for (int j = 0; j < NMAX; j++) M[i][j] = P[i][j] - (k0 * P[i0][j] + k1 * P[i1][j]);
         }
         for (int i = 0; i < n; i++) {
             const double m0 = M[i][i0] * g0, m1 = M[i][i1] * g1;
             const double kr0 = K0[i] * R[0], kr1 = K1[i] * R[1];
-            for (int j = 0; j < n; j++)
+            for (int j = 0; j < NMAX; j++)
                 P[i][j] = (M[i][j] - (m0 * K0[j] + m1 * K1[j])) + (kr0 * K0[j] + kr1 * K1[j]);
         }
         for (int i = 0; i < n; i++) /* symmetric to the last bit */

@@ -437,7 +437,7 @@ static void held_reuse(const GyroObsHeld *c, const double *x, double ux, double 
 /* The held step of x's plant state at x's parameters and Omega_z (the linearization).
  * Converged parameters move 1e-16 to 1e-12 relative a step, so the maps are built once the
  * point has stayed within HELD_TOL of one xc for HELD_STEADY steps and reused while it
- * stays there (docs/observer-speed.md); otherwise the exact held step. */
+ * stays there (docs/results/performance.md); otherwise the exact held step. */
 void obs_linearize(GyroObserver *o, const double *x, double ux, double uy, double h,
                    double s1[4], double Phi[4][4], double S[4][8]) {
     GyroObsHeld *c = &o->held;

@@ -18,15 +18,18 @@ static void combine(const GyroObserver *o, const double xs[][NMAX],
         return;
     }
     /* P[a][b] = sum_j w_j (Ps_j[a][b] + d_j[a] d_j[b]), d_j = xs_j - x, summed over j in
-     * order for every b at once (the inner loop runs over contiguous b: vectorized). */
-    double d[GYRO_OBS_MMAX][NMAX];
+     * order for every b at once. The inner loop runs over all NMAX columns (a fixed length
+     * the compiler unrolls and vectorizes; it left a triangle's varying one scalar): the
+     * row's upper part is computed and dropped, the lower part mirrored, so the bits are
+     * the triangle's (columns past n hold what the filters' rows hold there, finite). */
+    double d[GYRO_OBS_MMAX][NMAX] = {{0.0}};
     for (int j = 0; j < M; j++)
         for (int a = 0; a < n; a++) d[j][a] = xs[j][a] - x[a];
     for (int a = 0; a < n; a++) {
         double acc[NMAX] = {0.0};
         for (int j = 0; j < M; j++) {
             const double wj = w[j], dja = d[j][a], *Pja = Ps[j][a], *dj = d[j];
-            for (int b = 0; b <= a; b++) acc[b] += wj * (Pja[b] + dja * dj[b]);
+            for (int b = 0; b < NMAX; b++) acc[b] += wj * (Pja[b] + dja * dj[b]);
         }
         for (int b = 0; b <= a; b++) {
             P[a][b] = acc[b];
@@ -99,7 +102,7 @@ static void predict_about(const GyroObserver *o, const double *xbar, const doubl
                           double P[NMAX][NMAX], const double Fr[][GYRO_OBS_RMAX],
                           const double Qr[][GYRO_OBS_RMAX], double q0, double q1) {
     const int n = o->n, r = n - IOM;
-    double d[12], om[GYRO_OBS_RMAX], A[NMAX][NMAX], B[NMAX][NMAX];
+    double d[12], om[GYRO_OBS_RMAX], A[NMAX][NMAX], At[NMAX][NMAX], Bt[NMAX][NMAX];
     for (int c = 0; c < 12; c++) d[c] = x[c] - xbar[c];
     for (int i = 0; i < 4; i++) {
         double acc = s1[i];
@@ -113,47 +116,55 @@ static void predict_about(const GyroObserver *o, const double *xbar, const doubl
         om[a] = acc;
     }
     for (int a = 0; a < r; a++) x[IOM + a] = om[a];
-    /* A = F P, row by row over contiguous k (each sum over c in order: the same bits) */
+    /* Every loop below runs its innermost index over a whole row of NMAX (a fixed length
+     * the compiler unrolls and vectorizes; it left runtime-length rows scalar) and keeps
+     * each sum's order over c, so the bits are those of the row-times-column products.
+     * Columns past n are computed and dropped. A = F P, row by row: */
     for (int i = 0; i < 4; i++) {
         double acc[NMAX] = {0.0};
         for (int c = 0; c < 4; c++)
-            for (int k = 0; k < n; k++) acc[k] += Phi[i][c] * P[c][k];
+            for (int k = 0; k < NMAX; k++) acc[k] += Phi[i][c] * P[c][k];
         for (int c = 0; c < 8; c++)
-            for (int k = 0; k < n; k++) acc[k] += S[i][c] * P[4 + c][k];
-        memcpy(A[i], acc, n * sizeof(double));
+            for (int k = 0; k < NMAX; k++) acc[k] += S[i][c] * P[4 + c][k];
+        memcpy(A[i], acc, sizeof acc);
     }
-    for (int i = 4; i < IOM; i++) memcpy(A[i], P[i], n * sizeof(double));
+    for (int i = 4; i < IOM; i++) memcpy(A[i], P[i], sizeof A[i]);
     for (int a = 0; a < r; a++) {
         double acc[NMAX] = {0.0};
         for (int c = 0; c < r; c++)
-            for (int k = 0; k < n; k++) acc[k] += Fr[a][c] * P[IOM + c][k];
-        memcpy(A[IOM + a], acc, n * sizeof(double));
+            for (int k = 0; k < NMAX; k++) acc[k] += Fr[a][c] * P[IOM + c][k];
+        memcpy(A[IOM + a], acc, sizeof acc);
     }
-    for (int i = 0; i < n; i++) { /* B = (F P) F' */
-        for (int j = 0; j < 4; j++) {
-            double acc = 0.0;
-            for (int c = 0; c < 4; c++) acc += A[i][c] * Phi[j][c];
-            for (int c = 0; c < 8; c++) acc += A[i][4 + c] * S[j][c];
-            B[i][j] = acc;
-        }
-        for (int j = 4; j < IOM; j++) B[i][j] = A[i][j];
-        for (int a = 0; a < r; a++) {
-            double acc = 0.0;
-            for (int c = 0; c < r; c++) acc += A[i][IOM + c] * Fr[a][c];
-            B[i][IOM + a] = acc;
-        }
+    for (int i = n; i < NMAX; i++) memset(A[i], 0, sizeof A[i]);
+    for (int c = 0; c < NMAX; c++) /* At = A' */
+        for (int i = 0; i < NMAX; i++) At[c][i] = A[i][c];
+    /* B = (F P) F', as its transpose: column j of B is sum_c F[j][c] (column c of A) */
+    for (int j = 0; j < 4; j++) {
+        double acc[NMAX] = {0.0};
+        for (int c = 0; c < 4; c++)
+            for (int i = 0; i < NMAX; i++) acc[i] += At[c][i] * Phi[j][c];
+        for (int c = 0; c < 8; c++)
+            for (int i = 0; i < NMAX; i++) acc[i] += At[4 + c][i] * S[j][c];
+        memcpy(Bt[j], acc, sizeof acc);
     }
-    B[0][0] += q0;
-    B[1][1] += q0;
-    B[2][2] += q1;
-    B[3][3] += q1;
-    for (int i = IPAR; i < IOM; i++) B[i][i] += o->qpar;
-    for (int a = 0; a < r; a++)
-        for (int c = 0; c < r; c++) B[IOM + a][IOM + c] += Qr[a][c];
+    for (int j = 4; j < IOM; j++) memcpy(Bt[j], At[j], sizeof Bt[j]);
+    for (int a = 0; a < r; a++) {
+        double acc[NMAX] = {0.0};
+        for (int c = 0; c < r; c++)
+            for (int i = 0; i < NMAX; i++) acc[i] += At[IOM + c][i] * Fr[a][c];
+        memcpy(Bt[IOM + a], acc, sizeof acc);
+    }
+    Bt[0][0] += q0;
+    Bt[1][1] += q0;
+    Bt[2][2] += q1;
+    Bt[3][3] += q1;
+    for (int i = IPAR; i < IOM; i++) Bt[i][i] += o->qpar;
+    for (int a = 0; a < r; a++) /* B[IOM + a][IOM + c] is Bt[IOM + c][IOM + a] */
+        for (int c = 0; c < r; c++) Bt[IOM + c][IOM + a] += Qr[a][c];
     for (int i = 0; i < n; i++) {
-        P[i][i] = B[i][i];
+        P[i][i] = Bt[i][i];
         for (int j = 0; j < i; j++) {
-            const double v = 0.5 * (B[i][j] + B[j][i]);
+            const double v = 0.5 * (Bt[j][i] + Bt[i][j]);
             P[i][j] = v;
             P[j][i] = v;
         }

@@ -1,0 +1,73 @@
+"""The observer at its defaults on hard gyros of the wide set (issue 44,
+benchmarks/observer_families.py --set wide): a high-Q gyro under tones not designed for
+it, a low-Q one under tones at its modes, and the 3 kHz gyro of the issue's drive
+(2500 + 1200 Hz). 100 ms of a constant 1 rad/s from guesses 5 % off, noise 1e-4 of each
+signal's peak, two noise seeds each. The guard is the issue's worst outcome: a run that
+ends more than 4 sigma off with status 0. On 2 x 416 runs of the wide set none did
+(docs/observer-rate-model.md); a regression to the issue's 8 sigma fails here.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from gyro_fmu.estimation.observer import GyroStateObserver, ObserverTuning
+from gyro_fmu.model.drive import TwoToneDrive
+from gyro_fmu.model.parameters import PARAMETER_NAMES, GyroParameters
+from gyro_fmu.model.plant import GyroPlantModel
+
+H, N = 5e-6, 20_000
+
+
+def gyro(fx: float, fy: float, qx: float, qy: float, kxy: float, dxy: float,
+         m: float) -> GyroParameters:
+    wx, wy = 2 * math.pi * fx, 2 * math.pi * fy
+    dxx, dyy = wx / qx, wy / qy
+    return GyroParameters(kxx=wx**2, kyy=wy**2, kxy=kxy * wx * wy, dxx=dxx, dyy=dyy,
+                          dxy=dxy * math.sqrt(dxx * dyy), m=m)
+
+
+HARD = {  # like the wide set's gyros 1 and 2 (seed 2026); the issue's kind of 3 kHz gyro
+    "9 kHz, Q 8e4, 4000 + 1200 Hz": (gyro(9210, 9254, 7.96e4, 5.75e4, 0.054, 0.1, 1.1e-8),
+                                     TwoToneDrive()),
+    "16.6 kHz, Q 600, tones at its modes": (gyro(16594, 16694, 682, 478, 0.010, 0.1, 4.5e-8),
+                                            TwoToneDrive(f1=16262, f2=16692)),
+    "3 kHz, Q 5e3, 2500 + 1200 Hz": (gyro(3000, 3060, 5e3, 5e3, 0.05, 0.05, 1e-7),
+                                     TwoToneDrive(f1=2500, f2=1200)),
+}
+
+
+def measurements(p: GyroParameters, u: np.ndarray) -> np.ndarray:
+    plant = GyroPlantModel(p)
+    s = np.empty((len(u), 4))
+    for k, uk in enumerate(u):
+        s[k] = plant.s
+        plant.step(float(uk), 0.0, 1.0, H)
+    return s[:, [0, 2]]
+
+
+@pytest.mark.parametrize("name", list(HARD))
+def test_no_run_ends_far_off_with_status_ok(name: str) -> None:
+    p, drive = HARD[name]
+    unit = drive.ux_many(np.arange(N) * H)
+    u = unit * 1e-8 / np.abs(measurements(p, unit)[:, 0]).max()  # peak displacement 1e-8 m
+    clean = measurements(p, u)
+    signs = np.random.default_rng(7).choice([-1, 1], size=len(PARAMETER_NAMES))
+    guess = GyroParameters(**{k: getattr(p, k) * (1 + 0.05 * s)
+                              for k, s in zip(PARAMETER_NAMES, signs, strict=True)})
+    for seed in (1, 2):
+        z = clean + np.random.default_rng(seed).standard_normal(clean.shape) \
+            * 1e-4 * np.abs(clean).max(axis=0)
+        obs = GyroStateObserver(guess, 0.0, 1, ObserverTuning())
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            for k in range(N):
+                obs.step(float(u[k]), 0.0, float(z[k, 0]), float(z[k, 1]), H)
+        row = obs.output_row()
+        off = abs(row[4] - 1.0) / row[12]
+        assert off <= 4.0 or obs.status != 0, (name, seed, off, obs.status)
+        assert off <= 10.0, (name, seed, off, obs.status)  # flagged or not, not this far
