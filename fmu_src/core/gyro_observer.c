@@ -364,12 +364,6 @@ void gyro_observer_rate_probabilities(const GyroObserver *o, double p[4]) {
     }
 }
 
-static int all_finite(const double *v, size_t count) {
-    for (size_t i = 0; i < count; i++)
-        if (!isfinite(v[i])) return 0;
-    return 1;
-}
-
 /* Every field of a restored state that the step reads, checked (NULL: usable): finite
  * numbers, probabilities in [0, 1], indices and counts in their ranges, a terminated
  * message. The rate models over h_cached are rebuilt at the next step (not trusted). */

@@ -403,9 +403,8 @@ static int held_build(GyroObserver *o) {
         if (k < 4) memcpy(c->Phi, Phi, sizeof Phi);
         else memcpy(c->psi[k - 4], s1, sizeof s1);
     }
-    int finite = 1;
-    for (const double *v = &c->Phi[0][0]; v < &c->Sk[0][0][0] + 6 * 32; v++)
-        finite &= isfinite(*v) != 0;
+    const int finite = all_finite(&c->Phi[0][0], 16) && all_finite(&c->psi[0][0], 8) &&
+                       all_finite(&c->Sk[0][0][0], 6 * 32);
     c->valid = finite;
     return finite;
 }

@@ -96,6 +96,12 @@ extern const double gyro_obs_factorial_table[48];
 
 static inline double dmax(double a, double b) { return a >= b ? a : b; }
 static inline double dmin(double a, double b) { return a <= b ? a : b; }
+/* 1 when all count numbers from v on are finite (restored states, held-step maps). */
+static inline int all_finite(const double *v, size_t count) {
+    for (size_t i = 0; i < count; i++)
+        if (!isfinite(v[i])) return 0;
+    return 1;
+}
 
 /* gyro_observer_held.c */
 void obs_linearize(GyroObserver *o, const double *x, double ux, double uy, double h,
