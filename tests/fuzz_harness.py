@@ -19,9 +19,9 @@ from pathlib import Path
 from gyro_fmu.fmu.native import (
     NATIVE_INTERFACES,
     fmi_header_dir,
+    generated_headers,
     model_sources,
     sources_root,
-    variables_header,
 )
 
 HERE = Path(__file__).resolve().parent / "fuzz"
@@ -67,9 +67,9 @@ def build(model: str, dest: Path, root: Path | None = None,
     (fmu_src/ of this checkout by default; another checkout's, with its variables.h text,
     to fuzz an older version)."""
     interface = NATIVE_INTERFACES[model]
-    gen = dest / "generated" / model
-    gen.mkdir(parents=True, exist_ok=True)
-    (gen / "variables.h").write_text(variables or variables_header(interface))
+    gen = generated_headers(dest / "generated" / model, interface)
+    if variables is not None:
+        (gen / "variables.h").write_text(variables)
     here = sources_root()
     root = root or here
     sources = [str(root / p.relative_to(here)) for p in model_sources(interface)

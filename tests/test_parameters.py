@@ -11,6 +11,7 @@ from gyro_fmu.model.parameters import (
     PRESETS,
     ParameterError,
     UnstablePlantWarning,
+    check_parameters,
     max_growth_rate,
     preset,
     validate_for_plant,
@@ -60,15 +61,14 @@ def test_overrides_apply_and_bad_names_or_values_are_named():
 
 
 def test_the_parameter_limits_are_the_cores() -> None:
-    """K_MAX and D_MAX are written twice: in the declarations (the FMUs' max, generated
-    before the core is compiled) and in the core (GYRO_K_MAX, GYRO_D_MAX, its checks).
-    They must agree, or the FMU and the library refuse at different values."""
-    import re
-    from pathlib import Path
-
+    """K_MAX and D_MAX are declared once (gyro_fmu.core.structs.plant) for the FMUs' max and
+    the core's checks (GYRO_K_MAX, GYRO_D_MAX of the generated gyro_structs.h): the core
+    accepts each limit itself and refuses the next double above it."""
     from gyro_fmu.model.parameters import D_MAX, K_MAX
 
-    header = (Path(__file__).resolve().parents[1] / "fmu_src" / "core" / "gyro_plant.h"
-              ).read_text()
-    found = dict(re.findall(r"#define GYRO_([KD]_MAX) (\S+)", header))
-    assert float(found["K_MAX"]) == K_MAX and float(found["D_MAX"]) == D_MAX, found
+    base = PRESETS["park-horowitz"]
+    for name, limit in (("kxy", K_MAX), ("dxy", D_MAX)):
+        at = check_parameters(base.with_overrides(**{name: -limit}))
+        assert not any(f"|{name}| <=" in p for p in at), at
+        above = check_parameters(base.with_overrides(**{name: math.nextafter(limit, math.inf)}))
+        assert above and f"|{name}| <= {limit:g}" in above[0], above

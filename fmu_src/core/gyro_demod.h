@@ -23,33 +23,8 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include "gyro_structs.h" /* generated: gyro_fmu/core/structs/ */
 
-#define GYRO_DEMOD_ORDER 5
-#define GYRO_DEMOD_CHANNELS 4 /* Vx, Vy, Vpx, Vpy */
-
-typedef struct {
-    /* settings (gyro_demod_init) */
-    double omega0;      /* rad/s, mixing frequency */
-    double h;           /* s, step */
-    int64_t r0;         /* first step of the record */
-    int64_t n;          /* steps in the record (a multiple of B) */
-    int64_t B;          /* decimation */
-    int64_t tail;       /* full-rate pick-off steps kept at the record's end (<= n) */
-    double drive_limit; /* V, the gain counted as pinned at or above it */
-    /* outputs, the caller's arrays */
-    double *base;       /* M x CHANNELS x 2: (re, im) of each filtered channel */
-    double *theta;      /* M: NCO phase less omega0 t, filtered like the channels (rad) */
-    double *tail_po;    /* tail x 2: Vpx, Vpy of the last `tail` record steps */
-    const double *kernel; /* ORDER * B weights (gyro_demod_kernel), the caller's */
-    /* running */
-    double acc[GYRO_DEMOD_ORDER][GYRO_DEMOD_CHANNELS][2];
-    double acc_theta[GYRO_DEMOD_ORDER];
-    int64_t next;       /* the step expected next */
-    double theta_last, phase_departure;
-    int32_t has_theta, reserved;
-    double worst_phase_error, sum_amplitude, gain_peak, sum_gain;
-    int64_t pinned, counted, emitted;
-} GyroDemod;
 
 /* ORDER * B weights of the cascaded boxcars (B^-ORDER times the ORDER-fold convolution of
  * B ones; the last ORDER - 1 are 0). */

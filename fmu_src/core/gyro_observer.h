@@ -19,134 +19,20 @@
 #include <stdint.h>
 
 #include "gyro_plant.h"
+#include "gyro_structs.h" /* generated: gyro_fmu/core/structs/ */
 
-#define GYRO_OBS_NPAR 7  /* kxx, kyy, kxy, dxx, dyy, dxy, b = 1/m */
 #define GYRO_OBS_IPAR 4  /* filter-state row of the first parameter */
 #define GYRO_OBS_IOM 11  /* filter-state row of Omega_z */
-#define GYRO_OBS_NMAX 14 /* most filter states (rate block of 3) */
-#define GYRO_OBS_MMAX 7  /* most rate models (the adaptive set) */
-#define GYRO_OBS_RMAX 3  /* most rate-block states */
 #define GYRO_OBS_KMAX 24 /* most Taylor terms of the held step (||A h|| <= 0.5 needs 18) */
-#define GYRO_OBS_MESSAGE 1024
 /* omega h above which the observer warns that the step is coarse (gyro_observer_step_warning):
  * the estimates and their sigmas degrade well before the refusal. */
 #define GYRO_OBS_OMEGA_H_WARN 1.2
-
-/* ObserverTuning (gyro_fmu/estimation/observer_tuning.py: units and meaning of each). */
-typedef struct {
-    double noise_rel, sigma_z1, sigma_z2, innov_floor, innov_tau;
-    int32_t rate_model, omega_order; /* RateModel: 0 adaptive 1 constant 2 tracking 3 expert */
-    double rate_bandwidth, rate_span, rate_dwell, q_Omega, q_param_rel;
-    double sigma0_k_rel, sigma0_d_rel, sigma0_m_rel;
-    double sigma0_Omega, sigma0_Omega_rate, sigma0_Omega_acc;
-    double sigma0_position, sigma0_velocity;
-    int32_t joseph, reserved;
-} GyroObserverTuning;
-
-/* Limits of the divergence monitor (gyro_observer_init sets them; observer_monitor.py
- * says why each is what it is). */
-typedef struct {
-    int32_t block;    /* innovation statistics judged over blocks of this many corrections */
-    int32_t absolute; /* absolute noise stds given: NIS against chi-square */
-    double nis_warn, nis_lost; /* block mean NIS (2 dof per correction) */
-    double rel_warn, rel_lost; /* relative mode: block RMS innovation / running peak */
-    double ratio;     /* kxx, kyy, 1/m within [theta0 / ratio, theta0 ratio] */
-    double d_max;     /* |dxx|, |dyy|, |dxy| <= d_max (1/s) */
-    double omega_max; /* |Omega_z| <= omega_max (rad/s) */
-    double corr_warn, nis_min; /* warning: lag-1 autocorrelation above corr_warn while NIS
-                                  above nis_min */
-} GyroMonitorLimits;
 
 /* Monitor verdicts: 0 ok, 1 warning, >= 2 lost, by cause. */
 enum { GYRO_MON_OK, GYRO_MON_WARN, GYRO_MON_NONFINITE, GYRO_MON_NOT_SPD, GYRO_MON_BOUNDS,
        GYRO_MON_INNOVATIONS };
 /* GyroMonitor.which of a warning: what tripped it. */
 enum { GYRO_WARN_NIS, GYRO_WARN_REL, GYRO_WARN_CORR, GYRO_WARN_REFIT };
-
-/* The monitor's accumulators over the current block and its last verdict. */
-typedef struct {
-    double nis, count;       /* sum of NIS and corrections so far in the block */
-    double status, cause, which, value; /* last verdict (GYRO_MON_*), what tripped, value */
-    double block;            /* blocks judged */
-    double last_nis, last_rel; /* the last block's mean NIS and RMS innovation / peak */
-    double prev[2], ac[2], sq[2]; /* last innovations, lag-1 products, squares (z1, z2) */
-    double last_corr;        /* the last block's larger lag-1 autocorrelation */
-} GyroMonitor;
-
-/* The re-fit test: does a re-fit of the last ~tau of data move the estimate? With the
- * parameters and Omega_z held at the estimate, W = d[x, vx/wx, y, vy/wy]^- / d(p, Omega_z)
- * is the predicted plant state's sensitivity (W <- Phi (I - K H) W + S each step, K the
- * state rows of the combined gain); psi = H W is that of the innovations nu. The score
- * g = sum lambda^(N-k) psi' S^-1 nu and its covariance F = sum lambda^(2(N-k)) psi' S^-1
- * psi (lambda = exp(-h / tau)) give T = g' F^-1 g, chi-square with 8 dof while the
- * estimate fits the window: the drop in chi-square a Gauss-Newton re-fit of the window
- * would gain (docs/observer-soundness.md). */
-typedef struct {
-    double W[4][8];
-    double g[8];
-    double F[8][8];
-    double weight;       /* sum of lambda^(2(N-k)) so far: the window is judged once full */
-    double last_T;       /* T at the last block judged (-1: not judged yet) */
-    double shift[8];     /* the re-fit's move of (p, Omega_z) at the last block, in sigmas */
-    double move[8];      /* ... in the filter's units */
-    double restarts;     /* re-fits that rejected the estimate (each re-opened P along move) */
-    double pending;      /* 1: the last judged window rejected the estimate; the next judges */
-} GyroRefit;
-
-/* The held step's maps at one linearization point xc (the scaled parameters and Omega_z,
- * filter rows IPAR..IOM) and step h, reused while the filter's point stays near xc
- * (gyro_observer_held.c). Every map is linear in [s, ux, uy]:
- * s1 = Phi s + psi u and S = sum_k s_k Sk[k] + ux Sk[4] + uy Sk[5], and Sk[k][i][q] =
- * dPhi[i][k]/dx_q, so a move dx from xc is corrected to first order. */
-typedef struct {
-    double valid;        /* 1: the maps hold at (xc, h) */
-    double h;            /* the step they were built for */
-    double xc[8];        /* where they were built (or, not valid yet, where steadiness began) */
-    double steady;       /* consecutive linearizations within tol of xc */
-    double tol;          /* reuse while ||dA_aug h||_inf <= tol (0: never reuse) */
-    double reused, built; /* linearizations from the maps; builds of them (statistics) */
-    double norm[8];      /* ||dA_aug/dx_q h||_inf without the force's part */
-    double Phi[4][4];
-    double psi[2][4];    /* s1 per unit ux, uy */
-    double Sk[6][4][8];  /* S per unit s_0..s_3, ux, uy */
-} GyroObsHeld;
-
-/* What one observer is: constants of its scaling, the rate models of the current step
- * and its state. A plain struct (no pointers): an FMU state is a copy of it. */
-typedef struct {
-    GyroObserverTuning tuning;
-    int32_t pair;        /* 1: positions x, y measured; 2: velocities vx, vy */
-    int32_t n;           /* filter states: 4 + 7 + order */
-    int32_t order;       /* rate-block states */
-    int32_t n_models;    /* rate models run (GYRO_OBS_MMAX adaptive, else 1) */
-    int32_t i0;          /* filter-state row of z1 (z2 is row i0 + 2) */
-    int32_t auto_prior;  /* the prior of [x, vx, y, vy] waits for the first signal */
-    int32_t status;      /* 0 ok, 1 warning, 2 lost */
-    int32_t lost;        /* 1: lost (message in lost_message); every step refuses */
-    double theta0[GYRO_OBS_NPAR], scale[GYRO_OBS_NPAR];
-    double wx, wy;       /* sqrt(kxx_0), sqrt(kyy_0), rad/s */
-    double hgain[2];     /* z = hgain * (x[i0], x[i0 + 2]): [1, 1] or [wx, wy] */
-    double MgT[5][16];   /* d(A_aug xi)/d(p, Omega_z), rows 1 and 3 ([4][6], [4][14] per step) */
-    GyroMonitorLimits lim;
-    /* rate models over the step h_cached (gyro_observer_set_step) */
-    double h_cached, qpar;
-    double Fr[GYRO_OBS_MMAX][GYRO_OBS_RMAX][GYRO_OBS_RMAX];
-    double Qr[GYRO_OBS_MMAX][GYRO_OBS_RMAX][GYRO_OBS_RMAX];
-    double Pi[GYRO_OBS_MMAX][GYRO_OBS_MMAX];
-    /* state: the combined estimate, each rate model's filter, probabilities */
-    double x[GYRO_OBS_NMAX], P[GYRO_OBS_NMAX][GYRO_OBS_NMAX];
-    double xs[GYRO_OBS_MMAX][GYRO_OBS_NMAX];
-    double Ps[GYRO_OBS_MMAX][GYRO_OBS_NMAX][GYRO_OBS_NMAX];
-    double mu[GYRO_OBS_MMAX]; /* model probabilities after the last correction */
-    double c[GYRO_OBS_MMAX];  /* ... predicted to the next one */
-    double peak[2];           /* running peak |z1|, |z2| */
-    double nu2[2];            /* EWMA of squared innovations (< 0: not started) */
-    GyroMonitor mon;
-    GyroRefit refit;
-    double t;                 /* s since construction */
-    GyroObsHeld held;        /* the held step's reusable maps (a cache: reset on restore) */
-    char lost_message[GYRO_OBS_MESSAGE];
-} GyroObserver;
 
 /* Results of the calls below that take a message buffer. */
 enum {
@@ -160,24 +46,6 @@ enum {
 
 /* Why a tuning is unusable (names and remedies; non-zero), or 0. */
 int gyro_observer_tuning_problems(const GyroObserverTuning *tun, char *msg, size_t n);
-
-/* The tuning from an FMU's variables `v`, named as GyroObserverTuning's fields (the FMUs
- * that run an observer declare them from gyro_fmu's ObserverTuning). */
-#define GYRO_OBS_TUNING_OF(v)                                                                 \
-    ((GyroObserverTuning){.noise_rel = (v)->noise_rel, .sigma_z1 = (v)->sigma_z1,             \
-                          .sigma_z2 = (v)->sigma_z2, .innov_floor = (v)->innov_floor,         \
-                          .innov_tau = (v)->innov_tau, .rate_model = (v)->rate_model,         \
-                          .omega_order = (v)->omega_order,                                    \
-                          .rate_bandwidth = (v)->rate_bandwidth, .rate_span = (v)->rate_span, \
-                          .rate_dwell = (v)->rate_dwell, .q_Omega = (v)->q_Omega,             \
-                          .q_param_rel = (v)->q_param_rel, .sigma0_k_rel = (v)->sigma0_k_rel, \
-                          .sigma0_d_rel = (v)->sigma0_d_rel,                                  \
-                          .sigma0_m_rel = (v)->sigma0_m_rel,                                  \
-                          .sigma0_Omega = (v)->sigma0_Omega,                                  \
-                          .sigma0_Omega_rate = (v)->sigma0_Omega_rate,                        \
-                          .sigma0_Omega_acc = (v)->sigma0_Omega_acc,                          \
-                          .sigma0_position = (v)->sigma0_position,                            \
-                          .sigma0_velocity = (v)->sigma0_velocity, .joseph = (v)->joseph})
 
 /* Build an observer from a parameter guess, Omega_z_0 (rad/s), pair (1 or 2) and tuning;
  * non-zero with msg naming the value and the remedy when they are unusable. */

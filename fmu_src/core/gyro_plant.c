@@ -96,22 +96,18 @@ void gyro_held_input_maps(const GyroParams *p, double Omega_z, double h,
     }
 }
 
-static const char *const AXES[6][3] = {
-    {"kxx", "x-axis stiffness", "1/s2"}, {"kyy", "y-axis stiffness", "1/s2"},
-    {"kxy", "cross-axis stiffness", "1/s2"}, {"dxx", "x-axis damping", "1/s"},
-    {"dyy", "y-axis damping", "1/s"}, {"dxy", "cross-axis damping", "1/s"}};
-static const double NOMINAL[6] = {1e8, 1e8, 1e7, 10.0, 10.0, 1.0};
+/* kxx .. m: name, label, unit, nominal (declared with GyroParams: gyro_fmu/core/structs/). */
+static const GyroFieldInfo PARAMS[7] = GYRO_PARAMS_INFO;
 
 #define add gyro_text_add
 
 int gyro_params_problems(const GyroParams *p, char *msg, size_t n) {
     const double v[7] = {p->kxx, p->kyy, p->kxy, p->dxx, p->dyy, p->dxy, p->m};
-    static const char *const names[7] = {"kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m"};
     char text[512];
     if (n) msg[0] = '\0';
     for (int i = 0; i < 7; i++)
         if (!isfinite(v[i])) {
-            snprintf(text, sizeof text, "%s=%g is not finite", names[i], v[i]);
+            snprintf(text, sizeof text, "%s=%g is not finite", PARAMS[i].name, v[i]);
             add(msg, n, text);
         }
     if (msg[0]) return 1;
@@ -128,20 +124,20 @@ int gyro_params_problems(const GyroParams *p, char *msg, size_t n) {
                      "%s %s=%g %s is beyond |%s| <= %g %s, the range the model integrates "
                      "accurately in double precision: give it divided by the mass (a MEMS "
                      "gyroscope has %s near %g)",
-                     AXES[i][1], AXES[i][0], v[i], AXES[i][2], AXES[i][0], limit, AXES[i][2],
-                     AXES[i][0], NOMINAL[i]);
+                     PARAMS[i].label, PARAMS[i].name, v[i], PARAMS[i].unit, PARAMS[i].name,
+                     limit, PARAMS[i].unit, PARAMS[i].name, PARAMS[i].nominal);
             add(msg, n, text);
         } else if (i < 2 && v[i] <= 0.0) {
             snprintf(text, sizeof text,
                      "%s %s=%g %s must be > 0 (a main-axis spring is neither negative nor "
                      "absent): give the stiffness divided by the mass, e.g. from preset "
-                     "'park-horowitz'", AXES[i][1], AXES[i][0], v[i], AXES[i][2]);
+                     "'park-horowitz'", PARAMS[i].label, PARAMS[i].name, v[i], PARAMS[i].unit);
             add(msg, n, text);
         } else if ((i == 3 || i == 4) && v[i] < 0.0) {
             snprintf(text, sizeof text,
                      "%s %s=%g %s must be >= 0 (a main-axis damping cannot feed energy in): "
-                     "give the damping divided by the mass", AXES[i][1], AXES[i][0], v[i],
-                     AXES[i][2]);
+                     "give the damping divided by the mass", PARAMS[i].label, PARAMS[i].name,
+                     v[i], PARAMS[i].unit);
             add(msg, n, text);
         }
     }

@@ -15,21 +15,7 @@
 #include <stdint.h>
 
 #include "gyro_rng.h"
-
-typedef struct {
-    double kxx, kyy, kxy;  /* stiffness / m, 1/s^2 */
-    double dxx, dyy, dxy;  /* damping / m, 1/s */
-    double m;              /* proof mass, kg */
-} GyroParams;
-
-/* Standard deviations of white Gaussian noise on each measured signal (m, m/s). */
-typedef struct {
-    double x, vx, y, vy;
-} GyroPickoffNoise;
-
-typedef struct {
-    double x, vx, y, vy;
-} GyroState;
+#include "gyro_structs.h" /* generated: gyro_fmu/core/structs/ */
 
 /* s(t+h) = Phi s(t) + Gamma [ux, uy], exact for held inputs, cached for (Omega_z, h). */
 typedef struct {
@@ -49,9 +35,8 @@ typedef struct {
     GyroHeldMaps maps;
 } GyroPlant;
 
-/* Largest |stiffness| (1/s^2) and |damping| (1/s) the model integrates accurately. */
-#define GYRO_K_MAX 1e20
-#define GYRO_D_MAX 1e10
+/* GYRO_K_MAX, GYRO_D_MAX (gyro_structs.h): the largest |stiffness| (1/s^2) and |damping|
+ * (1/s) the model integrates accurately. */
 
 /* Continuous-time 4x4 matrix A of [x, x', y, y'] (eqs. 3-4). */
 void gyro_system_matrix(const GyroParams *p, double Omega_z, double A[4][4]);

@@ -15,12 +15,7 @@
 #define GYRO_PLATFORM_H
 
 #include <stddef.h>
-
-typedef struct {
-    double J;      /* kg m^2, > 0 */
-    double c;      /* N m s/rad, > 0 */
-    double Kp, Ki; /* N m s/rad, N m/rad, >= 0 */
-} GyroPlatformParams;
+#include "gyro_structs.h" /* generated: gyro_fmu/core/structs/ */
 
 typedef struct {
     double w;     /* rad/s, the platform's inertial rate */

@@ -31,65 +31,10 @@
 #include <stdint.h>
 
 #include "gyro_rng.h"
+#include "gyro_structs.h" /* generated: gyro_fmu/core/structs/ */
 
-#define GYRO_RES_N 10       /* states */
-#define GYRO_RES_FORCED 6   /* states the force noise reaches: x, y, vx, vy, zx, zy */
 #define GYRO_RES_DRAWS 8    /* normals of the second generator per step: 6 force, 2 drive */
 #define GYRO_K_B 1.380649e-23 /* Boltzmann constant, J/K */
-
-/* In the order of gyro_fmu.model.resonator.ResonatorParameters (SI units). */
-typedef struct {
-    double f_x, f_y;        /* Hz, mode frequencies */
-    double Q_x, Q_y;        /* quality factors */
-    double dxy;             /* 1/s, cross damping (bias = dxy / (2 kappa)) */
-    double kxy;             /* 1/s^2, cross stiffness */
-    double kappa;           /* Bryant factor */
-    double Bx, By;          /* m/s^2/V, forcer gains */
-    double alpha_x, alpha_y; /* rad, forcer misalignments (x into y, y into x) */
-    double Px, Py;          /* V/m, pick-off gains */
-    double phi_x, phi_y;    /* rad, pick-off electronics phase lags at f_x */
-    double Exx, Exy, Eyx, Eyy; /* V/V, drive feed-through into the pick-offs */
-    double c_ring;          /* m/V, ring voltage seen by the pick-offs */
-    double k3x, k3y;        /* 1/(m^2 s^2), cubic stiffness (eqs. 20-21) */
-    int32_t cubic_substeps; /* splitting substeps when a cubic term is not 0, 1..1000 */
-    double ring_amplitude;  /* V, each ring tone (0 = off) */
-    double ring_frequency_1, ring_frequency_2; /* Hz */
-    double noise;           /* V, std of white noise on each pick-off sample */
-    double beta_x, beta_y;  /* rad, pick-off sensing axes tilted toward the other axis */
-    double k3xy, k3yx;      /* 1/(m^2 s^2), cross-cubic stiffness (eqs. 22-23) */
-    double m_modal;         /* kg, modal mass of the force noise (0 = none) */
-    double temperature;     /* K, at the start of the run */
-    double drive_noise;     /* V, std of white noise on each held drive voltage */
-    double temperature_rate; /* K/s */
-    double tc_f, tc_Q;      /* 1/K, relative change of f and of Q per kelvin */
-    int32_t thermal_update_steps; /* steps between re-discretizations during a ramp */
-    double warmup_span;     /* K, exponential warm-up: its total rise (0 = none) */
-    double warmup_tau;      /* s, its time constant */
-    double temperature_noise; /* K, std of white noise on each temperature-sensor sample */
-} GyroResonatorParams;
-
-/* One held step's maps, for (Omega_z, h, dT): s' = Phi s + Gamma V (+ L w). With cubic
- * stiffness Phi, Gamma are over h / (2 n). */
-typedef struct {
-    double Phi[GYRO_RES_N][GYRO_RES_N];
-    double Gamma[GYRO_RES_N][2];
-    double L[GYRO_RES_N][GYRO_RES_FORCED]; /* force noise input over h (0 without) */
-    double Omega_z, h, dT;
-    int32_t valid, reserved;
-} GyroResonatorMaps;
-
-typedef struct {
-    GyroResonatorParams p;
-    uint64_t seed;
-    double s[GYRO_RES_N];
-    double out[2];           /* Vpx, Vpy at the current time */
-    double T_sensor;         /* K, the temperature sensor at the current time */
-    int64_t k;               /* steps taken: the temperature ramp's clock */
-    GyroRng noise_rng;       /* pick-off noise */
-    GyroRng force_rng;       /* force and drive noise */
-    GyroRng sensor_rng;      /* temperature-sensor noise (its own stream) */
-    GyroResonatorMaps maps;
-} GyroResonator;
 
 /* Problems with p (0 when usable), "; "-separated in msg, each naming the value and the
  * remedy. */

@@ -8,13 +8,7 @@
 #define GYRO_RNG_H
 
 #include <stdint.h>
-
-typedef struct {
-    uint64_t s[4];      /* xoshiro256** state */
-    double spare;       /* second normal of the last polar pair */
-    int32_t has_spare;  /* 1 when spare is unused */
-    int32_t reserved;
-} GyroRng;
+#include "gyro_structs.h" /* generated: gyro_fmu/core/structs/ */
 
 void gyro_rng_seed(GyroRng *rng, uint64_t seed);
 uint64_t gyro_rng_next(GyroRng *rng);

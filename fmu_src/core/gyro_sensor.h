@@ -22,6 +22,7 @@
 #include "gyro_observer.h"
 #include "gyro_plant.h"
 #include "gyro_signals.h"
+#include "gyro_structs.h" /* generated: gyro_fmu/core/structs/ */
 
 /* Most internal steps one call may do (bounded work: 1 s of sensor time at 5 us, about
  * 3 s of CPU with the adaptive observer). */
@@ -35,13 +36,6 @@
 /* The pick-off noise is given as its std per sample at this step; at another internal step
  * h the std per sample is noise sqrt(GYRO_SENSOR_NOISE_STEP / h): the density is the same. */
 #define GYRO_SENSOR_NOISE_STEP 5e-6
-
-typedef struct {
-    double internal_step; /* s (0: auto, GYRO_SENSOR_STEP_MAX) */
-    double bandwidth;     /* Hz, -3 dB of the output filter */
-    double full_scale;    /* rad/s, the output's limit */
-    double resolution;    /* rad/s per least significant bit (0: not quantized) */
-} GyroReadout;
 
 typedef struct {
     GyroTwoToneDrive drive;

@@ -5,12 +5,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
-
-/* ux = A1 sin(2 pi f1 t) + A2 sin(2 pi f2 t), uy = 0 (eq. 10): two distinct tones make
- * W_kd of eq. 7 full rank, so the 8 unknowns can be separated. */
-typedef struct {
-    double A1, f1, A2, f2;  /* N, Hz, N, Hz */
-} GyroTwoToneDrive;
+#include "gyro_structs.h" /* generated: gyro_fmu/core/structs/ */
 
 double gyro_drive_ux(const GyroTwoToneDrive *d, double t);
 /* Why the drive is unusable ("" when fine); returns 0 when usable. */
@@ -23,12 +18,6 @@ typedef enum {
     GYRO_RATE_RAMP = 3,     /* offset, plus slope (t - t_start) from t_start on */
     GYRO_RATE_SINE = 4      /* offset + amplitude sin(2 pi frequency (t - t_start)) from t_start */
 } GyroRateKind;
-
-typedef struct {
-    int32_t kind;  /* GyroRateKind */
-    int32_t reserved;
-    double offset, amplitude, frequency, slope, t_start;  /* rad/s, rad/s, Hz, rad/s^2, s */
-} GyroRateProfile;
 
 double gyro_rate_Omega_z(const GyroRateProfile *r, double t);
 int gyro_rate_problems(const GyroRateProfile *r, char *msg, size_t n);

@@ -11,10 +11,11 @@ import ctypes
 import functools
 import platform
 import sys
-from ctypes import POINTER, c_char_p, c_double, c_int, c_int32, c_size_t, c_uint64
+from ctypes import POINTER, c_char_p, c_double, c_int, c_size_t, c_uint64
 from pathlib import Path
 
 from ..errors import GyroFmuError
+from .structs import plant as structs
 
 LIB_DIR = Path(__file__).resolve().parent / "lib"
 #: Platform folder (FMI 3.0 platform tuple) -> file name of the core library.
@@ -41,26 +42,12 @@ def platform_tuple() -> str:
     return f"{arch}-{system}"
 
 
-class Params(ctypes.Structure):
-    _fields_ = [(n, c_double) for n in ("kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m")]
-
-
-class PickoffNoise(ctypes.Structure):
-    _fields_ = [(n, c_double) for n in ("x", "vx", "y", "vy")]
-
-
-class State(ctypes.Structure):
-    _fields_ = [(n, c_double) for n in ("x", "vx", "y", "vy")]
-
-
-class TwoToneDrive(ctypes.Structure):
-    _fields_ = [(n, c_double) for n in ("A1", "f1", "A2", "f2")]
-
-
-class RateProfile(ctypes.Structure):
-    _fields_ = [("kind", c_int32), ("reserved", c_int32),
-                *((n, c_double) for n in ("offset", "amplitude", "frequency", "slope",
-                                          "t_start"))]
+#: The structs, as ctypes mirrors of their one declaration (gyro_fmu.core.structs).
+Params = structs.PARAMS.ctypes()
+PickoffNoise = structs.PICKOFF_NOISE.ctypes()
+State = structs.STATE.ctypes()
+TwoToneDrive = structs.TWO_TONE_DRIVE.ctypes()
+RateProfile = structs.RATE_PROFILE.ctypes()
 
 
 _D = POINTER(c_double)

@@ -9,69 +9,28 @@ from __future__ import annotations
 
 import ctypes
 import functools
-from ctypes import POINTER, c_char, c_char_p, c_double, c_int, c_int32, c_size_t
+from ctypes import POINTER, c_char_p, c_double, c_int, c_size_t
 
 from .library import Params, RateProfile, TwoToneDrive, core
+from .structs import observer as structs
 
-NPAR, IPAR, IOM, NMAX, MMAX, RMAX = 7, 4, 11, 14, 7, 3
+NPAR, NMAX, MMAX, RMAX = (int(c) for c in (structs.NPAR, structs.NMAX, structs.MMAX,
+                                           structs.RMAX))
+IPAR, IOM = 4, 11  # gyro_observer.h: filter-state rows of the first parameter, of Omega_z
 #: Result codes of gyro_observer_step / update / predict.
 STEP_OK, STEP_WARNING, STEP_LOST, BAD_INPUT, TOO_COARSE, REFUSED = 0, 1, 2, -1, -2, -3
 #: GyroObserverTuning's Integer fields (the rest are doubles).
-INTEGER_FIELDS = ("rate_model", "omega_order", "joseph")
+INTEGER_FIELDS = tuple(f.name for f in structs.TUNING.settings if f.integer)
 _D = c_double
 
 
-class Tuning(ctypes.Structure):
-    _fields_ = [*((n, _D) for n in ("noise_rel", "sigma_z1", "sigma_z2", "innov_floor",
-                                    "innov_tau")),
-                ("rate_model", c_int32), ("omega_order", c_int32),
-                *((n, _D) for n in ("rate_bandwidth", "rate_span", "rate_dwell", "q_Omega",
-                                    "q_param_rel", "sigma0_k_rel", "sigma0_d_rel",
-                                    "sigma0_m_rel", "sigma0_Omega", "sigma0_Omega_rate",
-                                    "sigma0_Omega_acc", "sigma0_position", "sigma0_velocity")),
-                ("joseph", c_int32), ("reserved", c_int32)]
-
-
-class MonitorLimits(ctypes.Structure):
-    _fields_ = [("block", c_int32), ("absolute", c_int32),
-                *((n, _D) for n in ("nis_warn", "nis_lost", "rel_warn", "rel_lost", "ratio",
-                                    "d_max", "omega_max", "corr_warn", "nis_min"))]
-
-
-class Monitor(ctypes.Structure):
-    #: In this order they are the 16 numbers of GyroStateObserver.get_state()["monitor"].
-    _fields_ = [*((n, _D) for n in ("nis", "count", "status", "cause", "which", "value",
-                                    "block", "last_nis", "last_rel")),
-                ("prev", _D * 2), ("ac", _D * 2), ("sq", _D * 2), ("last_corr", _D)]
-
-
-class Refit(ctypes.Structure):
-    _fields_ = [("W", _D * 8 * 4), ("g", _D * 8), ("F", _D * 8 * 8), ("weight", _D),
-                ("last_T", _D), ("shift", _D * 8), ("move", _D * 8), ("restarts", _D),
-                ("pending", _D)]
-
-
-class HeldMaps(ctypes.Structure):
-    _fields_ = [("valid", _D), ("h", _D), ("xc", _D * 8), ("steady", _D), ("tol", _D),
-                ("reused", _D), ("built", _D),
-                ("norm", _D * 8), ("Phi", _D * 4 * 4), ("psi", _D * 4 * 2),
-                ("Sk", _D * 8 * 4 * 6)]
-
-
-class Observer(ctypes.Structure):
-    _fields_ = [("tuning", Tuning),
-                *((n, c_int32) for n in ("pair", "n", "order", "n_models", "i0", "auto_prior",
-                                         "status", "lost")),
-                ("theta0", _D * NPAR), ("scale", _D * NPAR), ("wx", _D), ("wy", _D),
-                ("hgain", _D * 2), ("MgT", _D * 16 * 5), ("lim", MonitorLimits),
-                ("h_cached", _D), ("qpar", _D),
-                ("Fr", _D * RMAX * RMAX * MMAX), ("Qr", _D * RMAX * RMAX * MMAX),
-                ("Pi", _D * MMAX * MMAX),
-                ("x", _D * NMAX), ("P", _D * NMAX * NMAX), ("xs", _D * NMAX * MMAX),
-                ("Ps", _D * NMAX * NMAX * MMAX), ("mu", _D * MMAX), ("c", _D * MMAX),
-                ("peak", _D * 2), ("nu2", _D * 2), ("mon", Monitor), ("refit", Refit),
-                ("t", _D), ("held", HeldMaps),
-                ("lost_message", c_char * 1024)]
+#: The structs, as ctypes mirrors of their one declaration (gyro_fmu.core.structs).
+Tuning = structs.TUNING.ctypes()
+MonitorLimits = structs.MONITOR_LIMITS.ctypes()
+Monitor = structs.MONITOR.ctypes()
+Refit = structs.REFIT.ctypes()
+HeldMaps = structs.HELD.ctypes()
+Observer = structs.OBSERVER.ctypes()
 
 
 _O = POINTER(Observer)

@@ -12,98 +12,36 @@ from __future__ import annotations
 
 import ctypes
 import functools
-from ctypes import POINTER, c_char_p, c_double, c_int, c_int32, c_int64, c_size_t, c_uint64
+from ctypes import POINTER, c_char_p, c_double, c_int, c_int64, c_size_t, c_uint64
 
 from .library import core
+from .structs import selfcal as structs
+from .structs.plant import RNG
 
-N_STATE, N_FORCED, N_DRAWS, CARRIER_COLUMNS = 10, 6, 8, 12
+N_STATE, N_FORCED = int(structs.RES_N), int(structs.RES_FORCED)
+N_DRAWS, CARRIER_COLUMNS = 8, 12  # gyro_resonator.h GYRO_RES_DRAWS; gyro_carrier.h
 _D = c_double
 _N = N_STATE
 
-#: Integer fields of ResonatorParameters and LoopSettings (the rest are doubles).
-RESONATOR_INTEGERS = ("cubic_substeps", "thermal_update_steps")
-LOOP_INTEGERS = ("mode", "sideband_first", "sideband_count")
-RESONATOR_FIELDS = (
-    "f_x", "f_y", "Q_x", "Q_y", "dxy", "kxy", "kappa", "Bx", "By", "alpha_x", "alpha_y", "Px",
-    "Py", "phi_x", "phi_y", "Exx", "Exy", "Eyx", "Eyy", "c_ring", "k3x", "k3y",
-    "cubic_substeps", "ring_amplitude", "ring_frequency_1", "ring_frequency_2", "noise",
-    "beta_x", "beta_y", "k3xy", "k3yx", "m_modal", "temperature", "drive_noise",
-    "temperature_rate", "tc_f", "tc_Q", "thermal_update_steps", "warmup_span", "warmup_tau",
-    "temperature_noise")
-LOOP_FIELDS = (
-    "mode", "f_nominal", "amplitude", "q_nominal", "plant_gain", "pll_bandwidth",
-    "agc_bandwidth", "rebalance_bandwidth", "demod_cutoff", "rebalance_cutoff", "drive_limit",
-    "osc_phase", "sideband_index", "sideband_spacing", "sideband_first", "sideband_count",
-    "sideband_start", "ff_xx", "ff_xy", "ff_yx", "ff_yy", "excitation_amplitude",
-    "excitation_offset_x", "excitation_offset_y")
-#: GyroLoopOutputs, in order.
-LOOP_OUTPUTS = ("Vx", "Vy", "theta", "omega", "amplitude", "phase_error", "gain", "rate",
-                "quad")
+#: Fields of ResonatorParameters and LoopSettings, their Integer ones, the loops' outputs.
+RESONATOR_FIELDS = tuple(f.name for f in structs.RESONATOR_PARAMS.settings)
+LOOP_FIELDS = tuple(f.name for f in structs.LOOP_SETTINGS.settings)
+RESONATOR_INTEGERS = tuple(f.name for f in structs.RESONATOR_PARAMS.settings if f.integer)
+LOOP_INTEGERS = tuple(f.name for f in structs.LOOP_SETTINGS.settings if f.integer)
+LOOP_OUTPUTS = structs.LOOP_OUTPUT_NAMES
+DEMOD_ORDER, DEMOD_CHANNELS = int(structs.DEMOD_ORDER), int(structs.DEMOD_CHANNELS)
 
-
-def _fields(names: tuple[str, ...], integers: tuple[str, ...]) -> list:
-    return [(n, c_int32 if n in integers else _D) for n in names]
-
-
-class ResonatorParams(ctypes.Structure):
-    _fields_ = _fields(RESONATOR_FIELDS, RESONATOR_INTEGERS)
-
-
-class Rng(ctypes.Structure):
-    _fields_ = [("s", c_uint64 * 4), ("spare", _D), ("has_spare", c_int32),
-                ("reserved", c_int32)]
-
-
-class ResonatorMaps(ctypes.Structure):
-    _fields_ = [("Phi", _D * _N * _N), ("Gamma", _D * 2 * _N), ("L", _D * N_FORCED * _N),
-                ("Omega_z", _D), ("h", _D), ("dT", _D), ("valid", c_int32),
-                ("reserved", c_int32)]
-
-
-class Resonator(ctypes.Structure):
-    _fields_ = [("p", ResonatorParams), ("seed", c_uint64), ("s", _D * _N), ("out", _D * 2),
-                ("T_sensor", _D), ("k", c_int64), ("noise_rng", Rng), ("force_rng", Rng),
-                ("sensor_rng", Rng), ("maps", ResonatorMaps)]
-
-
-class LoopSettings(ctypes.Structure):
-    _fields_ = _fields(LOOP_FIELDS, LOOP_INTEGERS)
-
-
-class LoopGains(ctypes.Structure):
-    _fields_ = [(n, _D) for n in ("w_nominal", "pll_kp", "pll_ki", "agc_kp", "agc_ki",
-                                  "agc_feedforward", "rebalance_gain", "rebalance_wi")]
-
-
-class LoopState(ctypes.Structure):
-    _fields_ = [("theta", _D), ("omega", _D), ("pll_integral", _D), ("agc_integral", _D),
-                ("agc_lowpass", _D * 2 * 3), ("rebalance_lowpass", _D * 2 * 2),
-                ("rebalance_integral", _D * 2), ("v_held", _D * 2), ("v_previous", _D * 2)]
-
-
-class LoopOutputs(ctypes.Structure):
-    _fields_ = [(n, _D) for n in LOOP_OUTPUTS]
-
-
-class Loops(ctypes.Structure):
-    _fields_ = [("settings", LoopSettings), ("gains", LoopGains), ("state", LoopState),
-                ("out", LoopOutputs)]
-
-
-#: gyro_demod.h: GYRO_DEMOD_ORDER, GYRO_DEMOD_CHANNELS.
-DEMOD_ORDER, DEMOD_CHANNELS = 5, 4
-
-
-class Demod(ctypes.Structure):
-    _fields_ = [("omega0", _D), ("h", _D), ("r0", c_int64), ("n", c_int64), ("B", c_int64),
-                ("tail", c_int64), ("drive_limit", _D), ("base", POINTER(_D)),
-                ("theta", POINTER(_D)), ("tail_po", POINTER(_D)), ("kernel", POINTER(_D)),
-                ("acc", _D * 2 * DEMOD_CHANNELS * DEMOD_ORDER),
-                ("acc_theta", _D * DEMOD_ORDER), ("next", c_int64),
-                ("theta_last", _D), ("phase_departure", _D), ("has_theta", c_int32),
-                ("reserved", c_int32), ("worst_phase_error", _D), ("sum_amplitude", _D),
-                ("gain_peak", _D), ("sum_gain", _D),
-                ("pinned", c_int64), ("counted", c_int64), ("emitted", c_int64)]
+#: The structs, as ctypes mirrors of their one declaration (gyro_fmu.core.structs).
+ResonatorParams = structs.RESONATOR_PARAMS.ctypes()
+Rng = RNG.ctypes()
+ResonatorMaps = structs.RESONATOR_MAPS.ctypes()
+Resonator = structs.RESONATOR.ctypes()
+LoopSettings = structs.LOOP_SETTINGS.ctypes()
+LoopGains = structs.LOOP_GAINS.ctypes()
+LoopState = structs.LOOP_STATE.ctypes()
+LoopOutputs = structs.LOOP_OUTPUTS.ctypes()
+Loops = structs.LOOPS.ctypes()
+Demod = structs.DEMOD.ctypes()
 
 
 _P = POINTER(_D)

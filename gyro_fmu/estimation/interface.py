@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.structs.observer import TUNING
+from ..core.structs.plant import PARAMS
 from ..model.drive import TwoToneDrive
-from ..model.interfaces import FmuInterface, Var, dataclass_parameters
+from ..model.interfaces import FmuInterface, StructCopy, Var, dataclass_parameters
 from ..model.parameters import (
     DEFAULT_PRESET,
     PARAMETER_BOUNDS,
@@ -115,4 +117,6 @@ OBSERVER = FmuInterface(
     doctor_check=({}, OUTPUTS),
     reference_inputs=_reference_inputs,
     core_sources=("gyro_rng.c", "gyro_plant.c", *OBSERVER_SOURCES),
+    struct_copies=(StructCopy("guess_of", PARAMS, {"*": "{}_0"}),
+                   StructCopy("tuning_of", TUNING)),
 )

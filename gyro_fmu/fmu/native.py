@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from xml.etree.ElementTree import Element, SubElement, indent, tostring
 
+from ..core import structs
 from ..estimation.interface import OBSERVER, OBSERVER_SOURCES
 from ..model.interfaces import PHYSICS_INTERFACES, FmuInterface
 from ..model.selfcal_interfaces import SELFCAL_INTERFACES
@@ -93,6 +94,7 @@ def token(interface: FmuInterface) -> str:
     """FMI 2.0 guid and FMI 3.0 instantiationToken: a hash of the declarations and of every
     source the binary is made of, so a changed model never loads a stale description."""
     h = hashlib.sha256(repr(interface.variables).encode())
+    h.update(structs.header().encode())
     for path in model_sources(interface):
         h.update(path.name.encode() + path.read_bytes())
     return "{" + str(uuid.UUID(bytes=h.digest()[:16], version=5)) + "}"
@@ -127,8 +129,16 @@ def variables_header(interface: FmuInterface) -> str:
             f"{_c_double(v.start, '0.0')}, {_c_double(v.min, '-INFINITY')}, "
             f"{_c_double(v.max, 'INFINITY')}, {int(v.min_exclusive)}, "
             f'"{"" if v.integer else (v.unit or "1")}"}},')
-    lines += ["};", "#define N_VARIABLES (sizeof VARIABLES / sizeof VARIABLES[0])", "",
-              "#endif", ""]
+    lines += ["};", "#define N_VARIABLES (sizeof VARIABLES / sizeof VARIABLES[0])"]
+    names = {v.name for v in interface.variables}
+    if interface.struct_copies:
+        lines += ["", '#include "gyro_structs.h"', "",
+                  "/* The core structs filled from the variables (declared: gyro_fmu.core.structs;",
+                  " * FmuInterface.struct_copies). */"]
+    for copy in interface.struct_copies:
+        lines += [*structs.copy_function(copy.function, copy.struct, names, dict(copy.rename),
+                                         copy.zero), ""]
+    lines += ["#endif", ""] if interface.struct_copies else ["", "#endif", ""]
     return "\n".join(lines)
 
 
@@ -314,14 +324,26 @@ def compile_library(target: Target, sources: list[Path], include: list[Path], ou
     return out
 
 
+def generated_headers(gen: Path, interface: FmuInterface | None = None) -> Path:
+    """Write the generated headers into gen: gyro_structs.h (the core's structs, from
+    gyro_fmu.core.structs) and, for a model, its variables.h. Returns gen."""
+    gen.mkdir(parents=True, exist_ok=True)
+    (gen / "gyro_structs.h").write_text(structs.header())
+    if interface is not None:
+        (gen / "variables.h").write_text(variables_header(interface))
+    return gen
+
+
 def build_core(dest: Path, targets: tuple[Target, ...] = TARGETS) -> list[Path]:
     """The core as the Python library loads it: dest/<platform tuple>/<lib>."""
     core = sources_root() / "core"
     out = []
-    for t in targets:
-        lib = dest / t.fmi3 / t.library("gyro_core", lib_prefix=True)
-        out.append(compile_library(t, [core / n for n in CORE_SOURCES], [core], lib,
-                                   exported_core=True))
+    with tempfile.TemporaryDirectory(prefix="gyro_fmu-core-") as tmp:
+        gen = generated_headers(Path(tmp))
+        for t in targets:
+            lib = dest / t.fmi3 / t.library("gyro_core", lib_prefix=True)
+            out.append(compile_library(t, [core / n for n in CORE_SOURCES], [gen, core], lib,
+                                       exported_core=True))
     return out
 
 
@@ -329,9 +351,7 @@ def build_binaries(interface: FmuInterface, work: Path,
                    targets: tuple[Target, ...] = TARGETS) -> dict[str, Path]:
     """The model's binary per FMI 3.0 platform tuple, plus 'darwin64' (universal)."""
     root = sources_root()
-    gen = work / "generated" / interface.identifier
-    gen.mkdir(parents=True, exist_ok=True)
-    (gen / "variables.h").write_text(variables_header(interface))
+    gen = generated_headers(work / "generated" / interface.identifier, interface)
     sources = [p for p in model_sources(interface) if p.suffix == ".c"]
     include = [gen, root / "fmi", root / "core", fmi_header_dir()]
     binaries = {t.fmi3: compile_library(t, sources, include,
@@ -360,6 +380,7 @@ def fmu_members(interface: FmuInterface, fmi_version: int,
     for path in model_sources(interface):
         members[f"sources/{path.name}"] = path.read_bytes()
     members["sources/variables.h"] = variables_header(interface).encode()
+    members["sources/gyro_structs.h"] = structs.header().encode()
     if fmi_version == 3:
         members["sources/buildDescription.xml"] = build_description(interface)
     return members

@@ -9,14 +9,22 @@ Value references are the position in `variables` plus 1 (0 is FMI 3.0's `time`).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.structs import Struct
+from ..core.structs import plant as structs
 from ..options import SEED_MAX  # the FMUs' seed range (FMI 2.0 Integer)
 from .drive import TwoToneDrive
-from .parameters import DEFAULT_PRESET, PARAMETER_BOUNDS, PARAMETER_UNITS, PRESETS
+from .parameters import (
+    DEFAULT_PRESET,
+    PARAMETER_BOUNDS,
+    PARAMETER_DESCRIPTIONS,
+    PARAMETER_UNITS,
+    PRESETS,
+)
 from .rate import RateKind, RateProfile
 
 
@@ -59,7 +67,8 @@ class Var:
 def dataclass_parameters(cls: type) -> tuple[Var, ...]:
     """FMU parameters for the fields of a tuning dataclass (float, int or bool fields).
 
-    Each field may carry metadata {"unit", "description", "min", "max"}; booleans
+    Each field may carry metadata {"unit", "description", "min", "max", "nominal",
+    "min_exclusive"} (gyro_fmu.core.structs.Field.metadata); booleans
     become Integer 0/1 parameters so every importer can set them.
     """
     import dataclasses
@@ -74,8 +83,20 @@ def dataclass_parameters(cls: type) -> tuple[Var, ...]:
             None if integer else meta.get("unit", "1"),
             meta.get("description", f"tuning: {f.name}"), integer=integer,
             min=0 if boolean else meta.get("min"), max=1 if boolean else meta.get("max"),
+            nominal=meta.get("nominal"), min_exclusive=meta.get("min_exclusive", False),
         ))
     return tuple(out)
+
+
+@dataclass(frozen=True)
+class StructCopy:
+    """A core struct filled from an FMU's variables (generated into variables.h): field f
+    from the variable rename.get(f, rename.get("*", "{}").format(f)); fields in `zero` 0."""
+
+    function: str
+    struct: Struct
+    rename: Mapping[str, str] = field(default_factory=dict)
+    zero: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -99,6 +120,9 @@ class FmuInterface:
     #: The build measures a datasheet from the built FMU's own output and ships it as
     #: documentation/datasheet.json (gyro_fmu.sensor.datasheet: GyroSensor).
     datasheet: bool = False
+    #: Core structs the model's C file fills from its variables: variables.h defines each
+    #: copy as `static inline <Struct> <function>(const Variables *v)` (StructCopy).
+    struct_copies: tuple[StructCopy, ...] = ()
 
     def value_reference(self, name: str) -> int:
         return 1 + [v.name for v in self.variables].index(name)
@@ -115,11 +139,6 @@ def input_table(time: np.ndarray, columns: dict[str, np.ndarray]) -> np.ndarray:
 
 
 _P = PRESETS[DEFAULT_PRESET]
-_PARAMETER_DESCRIPTIONS = {
-    "kxx": "x-axis stiffness / m", "kyy": "y-axis stiffness / m",
-    "kxy": "cross-axis stiffness / m", "dxx": "x-axis damping / m",
-    "dyy": "y-axis damping / m", "dxy": "cross-axis damping / m", "m": "proof mass",
-}
 
 
 def _plant_reference_inputs(stop_time: float, step: float) -> np.ndarray:
@@ -137,7 +156,7 @@ PLANT = FmuInterface(
                  "measured signals (seeded white noise when noise_* > 0)."),
     variables=(
         *(Var(n, "parameter", getattr(_P, n), PARAMETER_UNITS[n], d, **PARAMETER_BOUNDS[n])
-          for n, d in _PARAMETER_DESCRIPTIONS.items()),
+          for n, d in PARAMETER_DESCRIPTIONS.items()),
         Var("noise_x", "parameter", 0.0, "m", "std of white noise on measured x", min=0.0,
             nominal=1e-12),
         Var("noise_vx", "parameter", 0.0, "m/s", "std of white noise on measured vx", min=0.0,
@@ -162,6 +181,8 @@ PLANT = FmuInterface(
     doctor_check=({"ux": 1e-7, "uy": 0.0, "Omega_z": 1.0}, ("x", "vx", "y", "vy")),
     reference_inputs=_plant_reference_inputs,
     core_sources=("gyro_rng.c", "gyro_plant.c"),
+    struct_copies=(StructCopy("params_of", structs.PARAMS),
+                   StructCopy("noise_of", structs.PICKOFF_NOISE, {"*": "noise_{}"})),
 )
 
 _D = TwoToneDrive()
@@ -179,6 +200,7 @@ DRIVE = FmuInterface(
     ),
     doctor_check=({}, ("ux", "uy")),
     core_sources=("gyro_signals.c",),
+    struct_copies=(StructCopy("drive_of", structs.TWO_TONE_DRIVE),),
 )
 
 _R = RateProfile()
@@ -201,6 +223,7 @@ RATE = FmuInterface(
     ),
     doctor_check=({}, ("Omega_z",)),
     core_sources=("gyro_signals.c",),
+    struct_copies=(StructCopy("rate_of", structs.RATE_PROFILE),),
 )
 
 #: The physics' native FMUs, by model identifier (gyro_fmu.fmu.native adds the observer).

@@ -28,11 +28,13 @@ which removes the zero-order hold's half-sample carrier delay.
 from __future__ import annotations
 
 import ctypes
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 
 import numpy as np
 
 from ..core import selfcal as c
+from ..core.structs import declared
+from ..core.structs.selfcal import LOOP_SETTINGS
 from ..errors import GyroFmuError
 from .resonator import core_struct
 
@@ -44,34 +46,11 @@ class LoopsError(GyroFmuError, ValueError):
     """A loop setting is unusable; the message names it and the remedy."""
 
 
-@dataclass(frozen=True)
+@declared(LOOP_SETTINGS)
 class LoopSettings:
-    """Electronics settings; tuning uses nominal plant values, not the true ones."""
-
-    mode: int = 1  #: 0 loops off, 1 x oscillator / y rebalanced, 2 reversed
-    f_nominal: float = 4000.0  #: Hz, NCO centre frequency
-    amplitude: float = 1.0  #: V, primary pick-off amplitude setpoint
-    q_nominal: float = 2.0e4  #: nominal Q, for the drive feed-forward
-    plant_gain: float = 1.0  #: 1/s, nominal P B / (2 omega) of each axis, for tuning
-    pll_bandwidth: float = 20.0  #: Hz
-    agc_bandwidth: float = 3.0  #: Hz
-    rebalance_bandwidth: float = 100.0  #: Hz
-    demod_cutoff: float = 500.0  #: Hz, each of 3 low-pass sections (PLL, AGC)
-    rebalance_cutoff: float = 2000.0  #: Hz, each of 2 low-pass sections (rebalance)
-    drive_limit: float = 5.0  #: V, largest oscillator drive amplitude
-    osc_phase: float = 0.0  #: rad, oscillator loop phase away from 90 deg
-    sideband_index: float = 0.0  #: modulation index of each sideband tone
-    sideband_spacing: float = 0.1  #: Hz, df
-    sideband_first: int = 1  #: first harmonic k of df
-    sideband_count: int = 15  #: number of tones
-    sideband_start: float = 0.0  #: s, modulation switches on here
-    ff_xx: float = 0.0  #: V/V, feed-forward correction of Vx in the x pick-off
-    ff_xy: float = 0.0  #: V/V, of Vy in the x pick-off
-    ff_yx: float = 0.0  #: V/V, of Vx in the y pick-off
-    ff_yy: float = 0.0  #: V/V, of Vy in the y pick-off
-    excitation_amplitude: float = 0.2  #: V, mode 0 tones on Vx and Vy
-    excitation_offset_x: float = 200.0  #: Hz, Vx tones at f_nominal -/+ this
-    excitation_offset_y: float = 230.0  #: Hz, Vy tones
+    """Electronics settings; tuning uses nominal plant values, not the true ones. The fields
+    (defaults, units, meaning) are declared with the core's struct
+    (gyro_fmu.core.structs.selfcal.LOOP_SETTINGS)."""
 
     def problems(self) -> list[str]:
         """Problems (empty when usable), each naming the value and the remedy (the core's

@@ -10,45 +10,34 @@ from __future__ import annotations
 import ctypes
 import math
 import warnings
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import asdict, fields, replace
 
 import numpy as np
 
+from ..core.structs import declared
+from ..core.structs.plant import D_MAX as D_MAX_C
+from ..core.structs.plant import K_MAX as K_MAX_C
+from ..core.structs.plant import PARAMS
 from ..errors import GyroFmuError
 
 #: Names of the seven fabrication-dependent parameters, in the patent's order.
-PARAMETER_NAMES: tuple[str, ...] = ("kxx", "kyy", "kxy", "dxx", "dyy", "dxy", "m")
+PARAMETER_NAMES: tuple[str, ...] = PARAMS.names
 
 #: SI unit of each parameter (normalized form).
-PARAMETER_UNITS: dict[str, str] = {
-    "kxx": "1/s2",
-    "kyy": "1/s2",
-    "kxy": "1/s2",
-    "dxx": "1/s",
-    "dyy": "1/s",
-    "dxy": "1/s",
-    "m": "kg",
-}
+PARAMETER_UNITS: dict[str, str] = {f.name: f.unit for f in PARAMS.fields}
 
-#: Largest |stiffness| (1/s^2) and |damping| (1/s) the model integrates accurately: beyond
-#: them the eigenvalues of the system matrix (held-input step, growth check) lose all
-#: precision in double arithmetic (dxx=1e300 gave "math range error"). A natural frequency
-#: of 1.6 GHz and a damping rate of 1e10 1/s are far beyond any MEMS resonator.
-K_MAX, D_MAX = 1e20, 1e10
+#: Largest |stiffness| (1/s^2) and |damping| (1/s) the model integrates accurately
+#: (gyro_fmu.core.structs.plant says why).
+K_MAX, D_MAX = K_MAX_C.value, D_MAX_C.value
 
-#: FMU min/max/nominal of each parameter: what physics allows, and its usual scale.
-#: Main-axis stiffnesses and the mass must be > 0 (min_exclusive: FMI's min is
-#: inclusive, the FMU refuses the min itself too), main-axis dampings >= 0; cross terms
-#: can be negative.
+#: FMU min/max/nominal of each parameter: what physics allows, and its usual scale
+#: (declared with the struct: gyro_fmu.core.structs.plant.PARAMS).
 PARAMETER_BOUNDS: dict[str, dict[str, float | bool]] = {
-    "kxx": {"min": 0.0, "min_exclusive": True, "max": K_MAX, "nominal": 1e8},
-    "kyy": {"min": 0.0, "min_exclusive": True, "max": K_MAX, "nominal": 1e8},
-    "kxy": {"max": K_MAX, "nominal": 1e7},  # |kxy| <= K_MAX: check_parameters
-    "dxx": {"min": 0.0, "max": D_MAX, "nominal": 10.0},
-    "dyy": {"min": 0.0, "max": D_MAX, "nominal": 10.0},
-    "dxy": {"max": D_MAX, "nominal": 1.0},
-    "m": {"min": 0.0, "min_exclusive": True, "nominal": 1e-7},
-}
+    f.name: {k: v for k, v in f.metadata().items() if k not in ("unit", "description")}
+    for f in PARAMS.fields}
+
+#: What each parameter is ("x-axis stiffness / m"), the FMUs' descriptions.
+PARAMETER_DESCRIPTIONS: dict[str, str] = {f.name: f.doc for f in PARAMS.fields}
 
 DEFAULT_PRESET = "park-horowitz"
 
@@ -61,17 +50,10 @@ class UnstablePlantWarning(UserWarning):
     """The parameter set has a growing mode; results stay finite only for short runs."""
 
 
-@dataclass(frozen=True)
+@declared(PARAMS)
 class GyroParameters:
-    """Normalized parameters of the 2-DOF gyroscope (patent eqs. 3-4)."""
-
-    kxx: float  #: x-axis stiffness / m, 1/s^2
-    kyy: float  #: y-axis stiffness / m, 1/s^2
-    kxy: float  #: cross-axis stiffness / m, 1/s^2
-    dxx: float  #: x-axis damping / m, 1/s
-    dyy: float  #: y-axis damping / m, 1/s
-    dxy: float  #: cross-axis damping / m, 1/s
-    m: float  #: proof mass, kg
+    """Normalized parameters of the 2-DOF gyroscope (patent eqs. 3-4): kxx, kyy, kxy
+    (stiffness / m, 1/s^2), dxx, dyy, dxy (damping / m, 1/s), m (proof mass, kg)."""
 
     def as_dict(self) -> dict[str, float]:
         return asdict(self)

@@ -38,11 +38,13 @@ from __future__ import annotations
 
 import ctypes
 import math
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import asdict, fields, replace
 
 import numpy as np
 
 from ..core import selfcal as c
+from ..core.structs import declared
+from ..core.structs.selfcal import RESONATOR_PARAMS
 from ..errors import GyroFmuError
 
 #: Order of the resonator's state vector.
@@ -60,59 +62,17 @@ class ResonatorError(GyroFmuError, ValueError):
     """A resonator parameter is unusable; the message names it and the remedy."""
 
 
-@dataclass(frozen=True)
+@declared(RESONATOR_PARAMS)
 class ResonatorParameters:
     """Near mode-matched high-Q resonator with electrostatic forcers and pick-offs.
 
     Default: 4 kHz, Q 2e4 (0.2 Hz half-power width, ring-down time 1.6 s), 0.25 Hz
     split, bias from cross damping 1.7e-3 rad/s (0.1 deg/s), quadrature 0.17 rad/s
     (10 deg/s), 3 % pick-off gain mismatch with 2 mrad relative phase, mrad forcer
-    misalignments and 1e-3 V/V feed-through: every imperfection of the seed on.
+    misalignments and 1e-3 V/V feed-through: every imperfection of the seed on. The
+    fields (defaults, units, meaning) are declared with the core's struct
+    (gyro_fmu.core.structs.selfcal.RESONATOR_PARAMS).
     """
-
-    f_x: float = 4000.0  #: Hz, x-mode resonant frequency
-    f_y: float = 4000.25  #: Hz, y-mode resonant frequency
-    Q_x: float = 2.0e4  #: x-mode quality factor
-    Q_y: float = 1.9e4  #: y-mode quality factor
-    dxy: float = 2.72e-3  #: 1/s, cross damping (bias = dxy / (2 kappa))
-    kxy: float = 7.0e3  #: 1/s^2, cross stiffness (quadrature = kxy / (2 kappa omega))
-    kappa: float = 0.8  #: Bryant factor
-    Bx: float = 0.05  #: m/s^2/V, x forcer gain
-    By: float = 0.048  #: m/s^2/V, y forcer gain
-    alpha_x: float = 2.0e-3  #: rad, x forcer misalignment into y
-    alpha_y: float = -1.0e-3  #: rad, y forcer misalignment into x
-    Px: float = 1.0e6  #: V/m, x pick-off gain
-    Py: float = 1.03e6  #: V/m, y pick-off gain
-    phi_x: float = 0.020  #: rad, x pick-off electronics phase lag at f_x
-    phi_y: float = 0.022  #: rad, y pick-off electronics phase lag at f_x
-    Exx: float = 2.0e-3  #: V/V, feed-through of Vx into the x pick-off
-    Exy: float = 5.0e-4  #: V/V, feed-through of Vy into the x pick-off
-    Eyx: float = 1.0e-3  #: V/V, feed-through of Vx into the y pick-off
-    Eyy: float = 2.0e-3  #: V/V, feed-through of Vy into the y pick-off
-    c_ring: float = 1.0e-7  #: m/V, ring voltage seen by the pick-offs
-    k3x: float = 0.0  #: 1/(m^2 s^2), cubic stiffness of x (eq. 20; 4.2e17 = +1 Hz at 1 um)
-    k3y: float = 0.0  #: 1/(m^2 s^2), cubic stiffness of y (eq. 21)
-    cubic_substeps: int = 4  #: splitting substeps per step when k3x or k3y is not 0
-    ring_amplitude: float = 0.0  #: V, each ring excitation tone (0 = off)
-    ring_frequency_1: float = 3740.0  #: Hz, first ring tone (off resonance)
-    ring_frequency_2: float = 4260.0  #: Hz, second ring tone
-    noise: float = 0.0  #: V, std of white noise on each pick-off sample
-    beta_x: float = 0.0  #: rad, x pick-off sensing axis tilted toward +y (non-orthogonality)
-    beta_y: float = 0.0  #: rad, y pick-off sensing axis tilted toward +x
-    k3xy: float = 0.0  #: 1/(m^2 s^2), cross-cubic stiffness, k3xy y^3 in the x equation (eq. 22)
-    k3yx: float = 0.0  #: 1/(m^2 s^2), cross-cubic stiffness, k3yx x^3 in the y equation (eq. 23)
-    m_modal: float = 0.0  #: kg, modal mass of the thermomechanical force noise (0 = no noise)
-    temperature: float = 300.0  #: K, resonator temperature at the start of the run
-    drive_noise: float = 0.0  #: V, std of white noise on each held drive voltage sample
-    temperature_rate: float = 0.0  #: K/s, temperature ramp during the run
-    tc_f: float = 0.0  #: 1/K, relative change of f_x and f_y per kelvin (e.g. -30e-6)
-    tc_Q: float = 0.0  #: 1/K, relative change of Q_x and Q_y per kelvin
-    thermal_update_steps: int = 4000  #: steps between re-discretizations during a ramp
-    #: K, exponential warm-up: the temperature also rises by
-    #: warmup_span (1 - exp(-t / warmup_tau)) (0 = none; with temperature_rate, the sum)
-    warmup_span: float = 0.0
-    warmup_tau: float = 600.0  #: s, the warm-up's time constant
-    temperature_noise: float = 0.0  #: K, std of white noise on each temperature-sensor sample
 
     @property
     def omega_x(self) -> float:

@@ -1,21 +1,26 @@
 """The FMU interfaces of the self-calibration instrument (US 9,482,553), declared once:
 GyroResonator (the resonator of gyro_fmu.model.resonator) and GyroLoops (the electronics
 of gyro_fmu.model.loops). Their parameters are the fields of ResonatorParameters and
-LoopSettings (`parameter_variables`: same name and default, the unit named here, the
-description from the field's `#:` comment), so a new field cannot be forgotten: the
-build fails until its unit is given.
+LoopSettings (`parameter_variables`: name, default, unit, description and bounds from
+their structs' one declaration, gyro_fmu.core.structs.selfcal).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import inspect
-import re
 from collections.abc import Mapping
 
 import numpy as np
 
-from .interfaces import SEED_MAX, FmuInterface, Var, dataclass_parameters, input_table
+from ..core.structs.selfcal import LOOP_SETTINGS, RESONATOR_PARAMS
+from .interfaces import (
+    SEED_MAX,
+    FmuInterface,
+    StructCopy,
+    Var,
+    dataclass_parameters,
+    input_table,
+)
 from .loops import OUTPUTS as LOOP_OUTPUTS
 from .loops import LoopSettings
 from .resonator import ResonatorParameters
@@ -26,57 +31,13 @@ LOOPS_RENAMED = {"amplitude": "amplitude_setpoint"}
 #: 10 samples per 4 kHz carrier cycle; 0.02 s is the reference run stored in the FMUs.
 SELFCAL_EXPERIMENT = (0.02, 25e-6)
 
-_FIELD_COMMENT = re.compile(r"^\s+(\w+)\s*:[^=\n]+=[^#\n]*#:\s*(.+?)\s*$", re.MULTILINE)
-
-
-def field_comments(cls: type) -> dict[str, str]:
-    """The `#:` comment of each field of a dataclass, without a leading unit ("Hz, ...").
-
-    A comment's first comma-separated part is taken for a unit when it has no space
-    ("m/s^2/V, x forcer gain" -> "x forcer gain"; "0 loops off, 1 ..." stays whole).
-    Empty when the source cannot be read.
-    """
-    try:
-        source = inspect.getsource(cls)
-    except (OSError, TypeError):
-        return {}
-    out = {}
-    for name, comment in _FIELD_COMMENT.findall(source):
-        head, _, rest = comment.partition(", ")
-        if " " not in head:  # a unit: "Hz, NCO centre frequency" or a bare "Hz"
-            comment = rest
-        if comment:
-            out[name] = comment
-    return out
-
-
-def parameter_variables(
-    cls: type,
-    units: Mapping[str, str],
-    descriptions: Mapping[str, str] | None = None,
-    bounds: Mapping[str, Mapping[str, float]] | None = None,
-    renamed: Mapping[str, str] | None = None,
-) -> tuple[Var, ...]:
-    """FMU parameters for every field of the dataclass cls (keyed by field name below).
-
-    units: the FMI unit (a key of gyro_fmu.fmu.slave.UNITS) of every float field; integer
-    fields are Integer parameters without unit. descriptions: replacements of field
-    comments that do not read well alone. bounds: {"min": ..., "max": ..., "nominal": ...}
-    per field, refused at set time by the FMU. renamed: FMU names of fields whose own
-    name is taken by another variable of the FMU.
-    """
-    comments = field_comments(cls)
-    descriptions, bounds, renamed = descriptions or {}, bounds or {}, renamed or {}
-    out = []
-    for v in dataclass_parameters(cls):
-        if not v.integer and v.name not in units:
-            raise KeyError(f"{cls.__name__}.{v.name}: give its FMI unit in the FMU's table")
-        text = descriptions.get(v.name) or comments.get(v.name) or v.name
-        out.append(dataclasses.replace(
-            v, name=renamed.get(v.name, v.name), unit=None if v.integer else units[v.name],
-            description=text, **bounds.get(v.name, {}),
-        ))
-    return tuple(out)
+def parameter_variables(cls: type, renamed: Mapping[str, str] | None = None) -> tuple[Var, ...]:
+    """FMU parameters for every field of the declared dataclass cls: name, default, unit,
+    description and bounds from its struct's declaration (gyro_fmu.core.structs); renamed:
+    FMU names of fields whose own name is taken by another variable of the FMU."""
+    renamed = renamed or {}
+    return tuple(dataclasses.replace(v, name=renamed.get(v.name, v.name))
+                 for v in dataclass_parameters(cls))
 
 
 def settings_from_parameters(cls: type, slave: object,
@@ -92,36 +53,6 @@ def fmu_parameters(settings: object, renamed: Mapping[str, str] | None = None) -
     """Parameter values of an FMU declared by parameter_variables, from a dataclass."""
     renamed = renamed or {}
     return {renamed.get(k, k): v for k, v in dataclasses.asdict(settings).items()}
-
-
-#: FMI unit of every field of ResonatorParameters.
-_RESONATOR_UNITS = {
-    "f_x": "Hz", "f_y": "Hz", "Q_x": "1", "Q_y": "1", "dxy": "1/s", "kxy": "1/s2",
-    "kappa": "1", "Bx": "m/s2/V", "By": "m/s2/V", "alpha_x": "rad", "alpha_y": "rad",
-    "Px": "V/m", "Py": "V/m", "phi_x": "rad", "phi_y": "rad",
-    "Exx": "1", "Exy": "1", "Eyx": "1", "Eyy": "1", "c_ring": "m/V",
-    "ring_amplitude": "V", "ring_frequency_1": "Hz", "ring_frequency_2": "Hz", "noise": "V",
-    "k3x": "1/(m2.s2)", "k3y": "1/(m2.s2)", "k3xy": "1/(m2.s2)", "k3yx": "1/(m2.s2)",
-    "beta_x": "rad", "beta_y": "rad", "m_modal": "kg", "temperature": "K", "drive_noise": "V",
-    "temperature_rate": "K/s", "tc_f": "1/K", "tc_Q": "1/K", "warmup_span": "K",
-    "warmup_tau": "s", "temperature_noise": "K",
-}
-#: Declared bounds (check_resonator states the strict ones at initialization).
-_RESONATOR_BOUNDS = {
-    **{n: {"min": 0.0} for n in ("f_x", "f_y", "Q_x", "Q_y", "kappa", "Bx", "By", "Px", "Py",
-                                 "noise", "drive_noise", "m_modal", "temperature",
-                                 "temperature_noise")},
-    **{n: {"min": -0.5, "max": 0.5} for n in ("beta_x", "beta_y")},
-    **{n: {"min": 0.0, "max": 1.5} for n in ("phi_x", "phi_y")},
-    "Px": {"min": 0.0, "nominal": 1e6}, "Py": {"min": 0.0, "nominal": 1e6},
-    "c_ring": {"nominal": 1e-7},
-    # maxima: bounded work a step (cubic_substeps, GYRO_CUBIC_SUBSTEPS_MAX in
-    # gyro_resonator.h); thermal_update_steps is a count, the int32 range
-    "cubic_substeps": {"min": 1, "max": 1000},
-    "thermal_update_steps": {"min": 1, "max": 2147483647},
-}
-
-
 
 
 def _resonator_reference_inputs(stop_time: float, step: float) -> np.ndarray:
@@ -154,7 +85,7 @@ RESONATOR = FmuInterface(
         'and, from an independent stream, force and drive noise) equals the in-process '
         'gyro_fmu.selfcal.inprocess run sample for sample (the same C core).'),
     variables=(
-        *parameter_variables(ResonatorParameters, _RESONATOR_UNITS, bounds=_RESONATOR_BOUNDS),
+        *parameter_variables(ResonatorParameters),
         Var("seed", "parameter", 0, None, "seed of the noise generators", integer=True,
             min=0, max=SEED_MAX),
         Var("Vx", "input", 0.0, "V", "x forcer voltage, held over the step"),
@@ -169,46 +100,10 @@ RESONATOR = FmuInterface(
     doctor_check=({"Vx": 0.6, "Vy": 0.0, "Omega_z": 1.0}, ("Vpx", "Vpy")),
     reference_inputs=_resonator_reference_inputs,
     core_sources=("gyro_rng.c", "gyro_resonator.c"),
+    struct_copies=(StructCopy("params_of", RESONATOR_PARAMS),),
     default_experiment=SELFCAL_EXPERIMENT,
 )
 
-#: FMI unit of every float field of LoopSettings (mode and sideband_* counts are Integers).
-_LOOP_UNITS = {
-    "f_nominal": "Hz", "amplitude": "V", "q_nominal": "1", "plant_gain": "1/s",
-    "pll_bandwidth": "Hz", "agc_bandwidth": "Hz", "rebalance_bandwidth": "Hz",
-    "demod_cutoff": "Hz", "rebalance_cutoff": "Hz", "drive_limit": "V", "osc_phase": "rad",
-    "sideband_index": "1", "sideband_spacing": "Hz", "sideband_start": "s",
-    "ff_xx": "1", "ff_xy": "1", "ff_yx": "1", "ff_yy": "1",
-    "excitation_amplitude": "V", "excitation_offset_x": "Hz", "excitation_offset_y": "Hz",
-}
-#: Where a field comment does not read well on its own.
-_LOOP_DESCRIPTIONS = {
-    "mode": "0 loops off (feed-forward tones), 1 x oscillator / y rebalanced, 2 reversed",
-    "amplitude": "primary pick-off amplitude setpoint (LoopSettings.amplitude)",
-    "plant_gain": "nominal P B / (2 omega) of each axis, for tuning",
-    "pll_bandwidth": "bandwidth of the phase-locked loop",
-    "agc_bandwidth": "bandwidth of the amplitude control",
-    "rebalance_bandwidth": "bandwidth of the force rebalance loop",
-    "demod_cutoff": "cutoff of each of the 3 low-pass sections of the PLL and AGC demodulators",
-    "rebalance_cutoff": "cutoff of each of the 2 low-pass sections of the rebalance demodulator",
-    "sideband_spacing": "spacing df of the sideband tones",
-    "ff_xx": "feed-forward correction of Vx in the x pick-off",
-    "ff_xy": "feed-forward correction of Vy in the x pick-off",
-    "ff_yx": "feed-forward correction of Vx in the y pick-off",
-    "ff_yy": "feed-forward correction of Vy in the y pick-off",
-    "excitation_amplitude": "mode 0: amplitude of each tone on Vx and Vy",
-    "excitation_offset_x": "mode 0: Vx tones at f_nominal -/+ this",
-    "excitation_offset_y": "mode 0: Vy tones at f_nominal -/+ this",
-}
-_LOOP_BOUNDS = {
-    "mode": {"min": 0, "max": 2},
-    # maxima: GYRO_SIDEBAND_*_MAX in gyro_loops.h (each step sums every tone)
-    "sideband_first": {"min": 0, "max": 1000000}, "sideband_count": {"min": 0, "max": 1000},
-    **{n: {"min": 0.0} for n in ("f_nominal", "amplitude", "q_nominal", "plant_gain",
-                                 "pll_bandwidth", "agc_bandwidth", "rebalance_bandwidth",
-                                 "demod_cutoff", "rebalance_cutoff", "drive_limit",
-                                 "sideband_index", "sideband_spacing")},
-}
 #: Outputs, in the order of gyro_fmu.model.loops.OUTPUTS.
 _LOOP_OUTPUTS = (
     Var("Vx", "output", 0.0, "V", "x forcer voltage, held over the next step"),
@@ -244,8 +139,7 @@ LOOPS = FmuInterface(
         'phase) and quadrature outputs; mode 1 x primary, 2 reversed, 0 loops off with off-'
         'resonant tones. Drive outputs are computed at the middle of the hold.'),
     variables=(
-        *parameter_variables(LoopSettings, _LOOP_UNITS, _LOOP_DESCRIPTIONS, _LOOP_BOUNDS,
-                             LOOPS_RENAMED),
+        *parameter_variables(LoopSettings, LOOPS_RENAMED),
         Var("Vpx", "input", 0.0, "V", "x pick-off voltage sampled at the step start"),
         Var("Vpy", "input", 0.0, "V", "y pick-off voltage sampled at the step start"),
         *_LOOP_OUTPUTS,
@@ -253,6 +147,7 @@ LOOPS = FmuInterface(
     doctor_check=({"Vpx": 1.0, "Vpy": 0.0}, tuple(LOOP_OUTPUTS)),
     reference_inputs=_loops_reference_inputs,
     core_sources=("gyro_loops.c",),
+    struct_copies=(StructCopy("settings_of", LOOP_SETTINGS, LOOPS_RENAMED),),
     default_experiment=SELFCAL_EXPERIMENT,
 )
 

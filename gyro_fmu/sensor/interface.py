@@ -15,13 +15,22 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..core.structs import plant as structs
+from ..core.structs.observer import TUNING
 from ..estimation.interface import OBSERVER_SOURCES
 from ..estimation.observer_tuning import ObserverTuning
 from ..model.drive import TwoToneDrive
-from ..model.interfaces import FmuInterface, Var, dataclass_parameters, input_table
+from ..model.interfaces import (
+    FmuInterface,
+    StructCopy,
+    Var,
+    dataclass_parameters,
+    input_table,
+)
 from ..model.parameters import (
     DEFAULT_PRESET,
     PARAMETER_BOUNDS,
+    PARAMETER_DESCRIPTIONS,
     PARAMETER_UNITS,
     PRESET_DRIVE_AMPLITUDE,
     PRESETS,
@@ -49,11 +58,6 @@ BANDWIDTH = 100.0
 FULL_SCALE = 35.0
 RESOLUTION = 2 * FULL_SCALE / 2 ** 16
 
-_DESCRIPTIONS = {
-    "kxx": "x-axis stiffness / m", "kyy": "y-axis stiffness / m",
-    "kxy": "cross-axis stiffness / m", "dxx": "x-axis damping / m",
-    "dyy": "y-axis damping / m", "dxy": "cross-axis damping / m", "m": "proof mass",
-}
 #: The observer's tuning: GyroObserver's defaults (the adaptive rate model; measured on
 #: the default gyro at noise 1e-4, a constant 1 rad/s then a 5 Hz sine of 0.2 rad/s: RMS
 #: error 7.7e-3 / 2.3e-2 rad/s against 3.2e-2 / 3.4e-2 for the one tracking model and
@@ -81,7 +85,8 @@ SENSOR = FmuInterface(
         "communication step at least the internal step. status: 0 ok, 1 warning, 2 lost."),
     variables=(
         *(Var(n, "parameter", getattr(_TRUTH, n), PARAMETER_UNITS[n],
-              f"as fabricated: {d}", **PARAMETER_BOUNDS[n]) for n, d in _DESCRIPTIONS.items()),
+              f"as fabricated: {d}", **PARAMETER_BOUNDS[n])
+          for n, d in PARAMETER_DESCRIPTIONS.items()),
         Var("noise_x", "parameter", NOISE_X, "m", "std of white noise on the measured x "
             "per 5 us sample (the density is kept at any internal step: per sample "
             "noise_x sqrt(5 us / internal step))", min=0.0, nominal=1e-12),
@@ -131,4 +136,10 @@ SENSOR = FmuInterface(
                   "gyro_sensor.c"),
     default_experiment=(0.05, 1e-3),
     datasheet=True,
+    struct_copies=(
+        StructCopy("truth_of", structs.PARAMS), StructCopy("design_of", structs.PARAMS,
+                                                           {"*": "{}_0"}),
+        StructCopy("noise_of", structs.PICKOFF_NOISE, {"*": "noise_{}"}, zero=("vx", "vy")),
+        StructCopy("drive_of", structs.TWO_TONE_DRIVE), StructCopy("readout_of", structs.READOUT),
+        StructCopy("tuning_of", TUNING)),
 )

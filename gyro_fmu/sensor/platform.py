@@ -13,8 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.structs.plant import PLATFORM_PARAMS
 from ..cosim.system import Component, Connection
-from ..model.interfaces import FmuInterface, Var, input_table
+from ..model.interfaces import FmuInterface, StructCopy, Var, input_table
 
 #: The example's platform and loop: a 2e-3 kg m2 platform, bearing friction 0.05 N m s/rad,
 #: a PI rate loop of about 12 Hz crossover (Kp / J = 75 1/s) with integral action 20 N m/rad.
@@ -57,6 +58,7 @@ PLATFORM = FmuInterface(
     reference_inputs=_reference_inputs,
     core_sources=("gyro_platform.c",),
     default_experiment=(1.0, 1e-3),
+    struct_copies=(StructCopy("params_of", PLATFORM_PARAMS),),
 )
 
 

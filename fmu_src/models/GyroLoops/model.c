@@ -13,24 +13,8 @@ typedef struct {
     GyroLoops loops;
 } ModelData;
 
-/* The FMU's amplitude_setpoint is LoopSettings.amplitude (its output amplitude is the
- * measured one). */
-static GyroLoopSettings settings_of(const Variables *v) {
-    GyroLoopSettings s;
-    s.mode = v->mode, s.f_nominal = v->f_nominal, s.amplitude = v->amplitude_setpoint;
-    s.q_nominal = v->q_nominal, s.plant_gain = v->plant_gain;
-    s.pll_bandwidth = v->pll_bandwidth, s.agc_bandwidth = v->agc_bandwidth;
-    s.rebalance_bandwidth = v->rebalance_bandwidth, s.demod_cutoff = v->demod_cutoff;
-    s.rebalance_cutoff = v->rebalance_cutoff, s.drive_limit = v->drive_limit;
-    s.osc_phase = v->osc_phase, s.sideband_index = v->sideband_index;
-    s.sideband_spacing = v->sideband_spacing, s.sideband_first = v->sideband_first;
-    s.sideband_count = v->sideband_count, s.sideband_start = v->sideband_start;
-    s.ff_xx = v->ff_xx, s.ff_xy = v->ff_xy, s.ff_yx = v->ff_yx, s.ff_yy = v->ff_yy;
-    s.excitation_amplitude = v->excitation_amplitude;
-    s.excitation_offset_x = v->excitation_offset_x;
-    s.excitation_offset_y = v->excitation_offset_y;
-    return s;
-}
+/* settings_of (variables.h) fills GyroLoopSettings from the parameters; the FMU's
+ * amplitude_setpoint is LoopSettings.amplitude (its output amplitude is the measured one). */
 
 static void publish(ModelData *d) {
     const GyroLoopOutputs *o = &d->loops.out;

@@ -24,11 +24,8 @@ typedef struct {
     double coarse_h; /* the last step size warned of as coarse (0: none) */
 } ModelData;
 
-static GyroParams guess_of(const Variables *v) {
-    return (GyroParams){v->kxx_0, v->kyy_0, v->kxy_0, v->dxx_0, v->dyy_0, v->dxy_0, v->m_0};
-}
-
-static GyroObserverTuning tuning_of(const Variables *v) { return GYRO_OBS_TUNING_OF(v); }
+/* guess_of and tuning_of (variables.h) fill GyroParams from kxx_0 .. m_0 and
+ * GyroObserverTuning from the tuning parameters. */
 
 static void publish(ModelData *d) {
     double out[20], p[4];

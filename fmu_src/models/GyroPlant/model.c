@@ -24,9 +24,9 @@ static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) 
     (void)start_time;
     ModelData *d = data;
     const Variables *v = &d->v;
-    const GyroParams p = {v->kxx, v->kyy, v->kxy, v->dxx, v->dyy, v->dxy, v->m};
+    const GyroParams p = params_of(v);
     if (gyro_params_problems(&p, msg, n)) return GYRO_HOOK_ERROR;
-    const GyroPickoffNoise sigma = {v->noise_x, v->noise_vx, v->noise_y, v->noise_vy};
+    const GyroPickoffNoise sigma = noise_of(v);
     gyro_plant_init(&d->plant, &p, &sigma, (uint64_t)v->seed, NULL);
     publish(d);
     return gyro_params_warning(&p, msg, n) ? GYRO_HOOK_WARNING : GYRO_HOOK_OK;
@@ -36,7 +36,7 @@ static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) 
     (void)t;
     ModelData *d = data;
     const Variables *v = &d->v;
-    const GyroParams p = {v->kxx, v->kyy, v->kxy, v->dxx, v->dyy, v->dxy, v->m};
+    const GyroParams p = params_of(v);
     if (gyro_rate_problem(&p, "Omega_z", v->Omega_z, msg, n)) return GYRO_HOOK_ERROR;
     gyro_plant_step(&d->plant, d->v.ux, d->v.uy, d->v.Omega_z, h);
     publish(d);
@@ -46,8 +46,8 @@ static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) 
 static GyroHookStatus restored(void *data, char *msg, size_t n) {
     ModelData *d = data;
     const Variables *v = &d->v;
-    const GyroParams p = {v->kxx, v->kyy, v->kxy, v->dxx, v->dyy, v->dxy, v->m};
-    const GyroPickoffNoise sigma = {v->noise_x, v->noise_vx, v->noise_y, v->noise_vy};
+    const GyroParams p = params_of(v);
+    const GyroPickoffNoise sigma = noise_of(v);
     if (gyro_plant_restored_problem(&d->plant, &p, &sigma, msg, n)) return GYRO_HOOK_ERROR;
     return GYRO_HOOK_OK;
 }

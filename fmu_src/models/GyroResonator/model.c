@@ -14,23 +14,7 @@ typedef struct {
     GyroResonator resonator;
 } ModelData;
 
-static GyroResonatorParams params_of(const Variables *v) {
-    GyroResonatorParams p;
-    p.f_x = v->f_x, p.f_y = v->f_y, p.Q_x = v->Q_x, p.Q_y = v->Q_y, p.dxy = v->dxy;
-    p.kxy = v->kxy, p.kappa = v->kappa, p.Bx = v->Bx, p.By = v->By, p.alpha_x = v->alpha_x;
-    p.alpha_y = v->alpha_y, p.Px = v->Px, p.Py = v->Py, p.phi_x = v->phi_x, p.phi_y = v->phi_y;
-    p.Exx = v->Exx, p.Exy = v->Exy, p.Eyx = v->Eyx, p.Eyy = v->Eyy, p.c_ring = v->c_ring;
-    p.k3x = v->k3x, p.k3y = v->k3y, p.cubic_substeps = v->cubic_substeps;
-    p.ring_amplitude = v->ring_amplitude, p.ring_frequency_1 = v->ring_frequency_1;
-    p.ring_frequency_2 = v->ring_frequency_2, p.noise = v->noise, p.beta_x = v->beta_x;
-    p.beta_y = v->beta_y, p.k3xy = v->k3xy, p.k3yx = v->k3yx, p.m_modal = v->m_modal;
-    p.temperature = v->temperature, p.drive_noise = v->drive_noise;
-    p.temperature_rate = v->temperature_rate, p.tc_f = v->tc_f, p.tc_Q = v->tc_Q;
-    p.thermal_update_steps = v->thermal_update_steps;
-    p.warmup_span = v->warmup_span, p.warmup_tau = v->warmup_tau;
-    p.temperature_noise = v->temperature_noise;
-    return p;
-}
+/* params_of (variables.h) fills GyroResonatorParams from the parameters. */
 
 static void publish(ModelData *d) {
     d->v.Vpx = d->resonator.out[0], d->v.Vpy = d->resonator.out[1];

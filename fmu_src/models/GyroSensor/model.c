@@ -30,13 +30,8 @@ typedef struct {
 } Settings;
 
 static Settings settings_of(const Variables *v) {
-    return (Settings){
-        .truth = {v->kxx, v->kyy, v->kxy, v->dxx, v->dyy, v->dxy, v->m},
-        .design = {v->kxx_0, v->kyy_0, v->kxy_0, v->dxx_0, v->dyy_0, v->dxy_0, v->m_0},
-        .noise = {v->noise_x, 0.0, v->noise_y, 0.0},
-        .drive = {v->A1, v->f1, v->A2, v->f2},
-        .readout = {v->internal_step, v->bandwidth, v->full_scale, v->resolution},
-        .tuning = GYRO_OBS_TUNING_OF(v)};
+    return (Settings){.truth = truth_of(v), .design = design_of(v), .noise = noise_of(v),
+                      .drive = drive_of(v), .readout = readout_of(v), .tuning = tuning_of(v)};
 }
 
 static void publish(ModelData *d) {

@@ -18,8 +18,7 @@ typedef struct {
 static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) {
     ModelData *d = data;
     const Variables *v = &d->v;
-    d->rate = (GyroRateProfile){v->kind, 0, v->offset, v->amplitude, v->frequency, v->slope,
-                                v->t_start};
+    d->rate = rate_of(v);
     if (gyro_rate_problems(&d->rate, msg, n)) return GYRO_HOOK_ERROR;
     d->v.Omega_z = gyro_rate_Omega_z(&d->rate, start_time);
     return GYRO_HOOK_OK;
@@ -41,8 +40,7 @@ static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) 
 static GyroHookStatus restored(void *data, char *msg, size_t n) {
     ModelData *d = data;
     const Variables *v = &d->v;
-    const GyroRateProfile want = {v->kind, 0, v->offset, v->amplitude, v->frequency, v->slope,
-                                  v->t_start};
+    const GyroRateProfile want = rate_of(v);
     if (memcmp(&want, &d->rate, sizeof want) != 0 || !isfinite(d->v.Omega_z)) {
         snprintf(msg, n, "the saved rate profile does not match its parameters");
         return GYRO_HOOK_ERROR;

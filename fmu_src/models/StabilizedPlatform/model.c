@@ -17,10 +17,6 @@ typedef struct {
     GyroPlatform s;
 } ModelData;
 
-static GyroPlatformParams params_of(const Variables *v) {
-    return (GyroPlatformParams){v->J, v->c, v->Kp, v->Ki};
-}
-
 static void publish(ModelData *d) {
     d->v.w = d->s.w, d->v.theta = d->s.theta, d->v.tau = d->s.tau;
 }

@@ -17,7 +17,7 @@ typedef struct {
 
 static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) {
     ModelData *d = data;
-    d->drive = (GyroTwoToneDrive){d->v.A1, d->v.f1, d->v.A2, d->v.f2};
+    d->drive = drive_of(&d->v);
     if (gyro_drive_problems(&d->drive, msg, n)) return GYRO_HOOK_ERROR;
     d->v.ux = gyro_drive_ux(&d->drive, start_time);
     d->v.uy = 0.0;
@@ -39,7 +39,7 @@ static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) 
 
 static GyroHookStatus restored(void *data, char *msg, size_t n) {
     ModelData *d = data;
-    const GyroTwoToneDrive want = {d->v.A1, d->v.f1, d->v.A2, d->v.f2};
+    const GyroTwoToneDrive want = drive_of(&d->v);
     if (memcmp(&want, &d->drive, sizeof want) != 0 || !isfinite(d->v.ux)) {
         snprintf(msg, n, "the saved drive does not match its parameters A1, f1, A2, f2");
         return GYRO_HOOK_ERROR;
