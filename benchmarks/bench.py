@@ -58,7 +58,7 @@ def build_null_fmus(dest: Path) -> dict[str, Path]:
         variables += [f'Var("{n}", "output", 0.0, "1", "{n}")' for n in outputs]
         script = dest / f"{cls}.py"
         script.write_text(textwrap.dedent(f'''\
-            from gyro_fmu.fmu.slave import GyroSlave, Var
+            from gyro_fmu.pythonfmu.slave import GyroSlave, Var
 
 
             class {cls}(GyroSlave):

@@ -3,9 +3,9 @@ FMU, fmu_src/models/GyroLoops/, is the default; this one is built on request).""
 
 from pythonfmu.default_experiment import DefaultExperiment
 
-from gyro_fmu.fmu.slave import GyroSlave
 from gyro_fmu.model.loops import OUTPUTS, LoopSettings
 from gyro_fmu.model.selfcal_interfaces import LOOPS, LOOPS_RENAMED, settings_from_parameters
+from gyro_fmu.pythonfmu.slave import GyroSlave
 
 
 class GyroLoops(GyroSlave):

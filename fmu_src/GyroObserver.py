@@ -5,8 +5,8 @@ from pythonfmu.enums import Fmi2Status
 
 from gyro_fmu.estimation.interface import OBSERVER, OUTPUTS
 from gyro_fmu.estimation.observer import ObserverDivergedError, ObserverTuning
-from gyro_fmu.fmu.slave import GyroSlave, dataclass_from_parameters
 from gyro_fmu.model.parameters import PARAMETER_UNITS
+from gyro_fmu.pythonfmu.slave import GyroSlave, dataclass_from_parameters
 
 #: Status-1 warnings logged per instance (a noisy run may enter and leave status 1 often).
 _MAX_WARNINGS = 3

@@ -1,9 +1,9 @@
 """GyroPlant.fmu, pythonfmu flavour: a thin adapter over the C core's plant (the native
 FMU, fmu_src/models/GyroPlant/, is the default; this one is built on request)."""
 
-from gyro_fmu.fmu.slave import GyroSlave
 from gyro_fmu.model.interfaces import PLANT
 from gyro_fmu.model.parameters import PARAMETER_NAMES
+from gyro_fmu.pythonfmu.slave import GyroSlave
 
 
 class GyroPlant(GyroSlave):

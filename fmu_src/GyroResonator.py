@@ -3,9 +3,9 @@ native FMU, fmu_src/models/GyroResonator/, is the default; this one is built on 
 
 from pythonfmu.default_experiment import DefaultExperiment
 
-from gyro_fmu.fmu.slave import GyroSlave, dataclass_from_parameters
 from gyro_fmu.model.resonator import ResonatorParameters
 from gyro_fmu.model.selfcal_interfaces import RESONATOR
+from gyro_fmu.pythonfmu.slave import GyroSlave, dataclass_from_parameters
 
 
 class GyroResonator(GyroSlave):

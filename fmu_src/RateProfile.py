@@ -1,7 +1,7 @@
 """RateProfile.fmu, pythonfmu flavour: a thin adapter over the C core's rate profiles."""
 
-from gyro_fmu.fmu.slave import GyroSlave
 from gyro_fmu.model.interfaces import RATE
+from gyro_fmu.pythonfmu.slave import GyroSlave
 
 
 class RateProfile(GyroSlave):

@@ -1,7 +1,7 @@
 """TwoToneDrive.fmu, pythonfmu flavour: a thin adapter over the C core's drive (eq. 10)."""
 
-from gyro_fmu.fmu.slave import GyroSlave
 from gyro_fmu.model.interfaces import DRIVE
+from gyro_fmu.pythonfmu.slave import GyroSlave
 
 
 class TwoToneDrive(GyroSlave):

@@ -25,9 +25,9 @@ import os
 __version__ = "0.4.0"
 
 # Many FMUs in one process, each shipping this package (the pythonfmu flavour's, whose
-# resources/ hold a copy): fmu/shipped_copies.py. An installed package needs no hook.
+# resources/ hold a copy): pythonfmu/shipped_copies.py. An installed package needs no hook.
 if os.path.basename(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))) == "resources":
-    importlib.import_module("gyro_fmu.fmu.shipped_copies").install()
+    importlib.import_module("gyro_fmu.pythonfmu.shipped_copies").install()
 
 _EXPORTS = {
     "scenario": "gyro_fmu.system.scenario",

@@ -16,6 +16,7 @@ import functools
 import hashlib
 import json
 import os
+import zlib
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -70,3 +71,15 @@ def remembered(kind: str, inputs: dict, code: Sequence[str], compute: Callable[[
     except OSError:
         pass
     return result
+
+
+def size_and_crc(path: Path) -> tuple[int, int]:
+    """A file's size and CRC-32 (what a zip archive stores of each member), remembered in
+    this process on the file's modification time: a check before every run stays cheap."""
+    stat = Path(path).stat()
+    return _size_and_crc_of(str(path), stat.st_mtime_ns, stat.st_size)
+
+
+@functools.lru_cache(maxsize=1024)
+def _size_and_crc_of(path: str, mtime_ns: int, size: int) -> tuple[int, int]:
+    return size, zlib.crc32(Path(path).read_bytes())

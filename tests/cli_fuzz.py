@@ -105,8 +105,10 @@ def _invoke(argv: list[str], folder: Path, budget: float
     # what an earlier trial cut by its alarm left for the garbage collector (a generator
     # or a file of the interrupted run, whose finalizer warns) is collected here, so that
     # its warnings are no later trial's (they were: a ResourceWarning and the overflows of
-    # a 1e300 trial recorded under the next one, design-drive --seed 0). Only after a cut
-    # trial: a collection costs 57 ms, 45 s over every trial.
+    # a 1e300 trial recorded under the next one, design-drive --seed 0; and again two trials
+    # after a 1e300 trial that was not cut but warned: its garbage, in a cycle, waited for
+    # an automatic collection). Only after a cut trial or one that warned: a collection
+    # costs 57 ms, 45 s over every trial.
     if _CUT[0]:
         with warnings.catch_warnings(record=True):
             warnings.simplefilter("always")
@@ -131,7 +133,7 @@ def _invoke(argv: list[str], folder: Path, budget: float
             escaped = "".join(traceback.format_exception_only(type(exc), exc)).strip()
         finally:
             _disarm(previous, cwd)
-    _CUT[0] = code == 130 or escaped is not None
+    _CUT[0] = code == 130 or escaped is not None or bool(caught)
     warned = tuple(f"{w.category.__name__}: {w.message}" for w in caught)
     return code, out.getvalue(), err.getvalue(), escaped, warned
 

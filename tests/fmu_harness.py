@@ -12,7 +12,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 
 from gyro_fmu.cosim.master import LogCollector, fmi2_callbacks
-from gyro_fmu.fmu.slave import DEBUG_CATEGORY
+from gyro_fmu.pythonfmu.slave import DEBUG_CATEGORY
 
 
 class Instance:

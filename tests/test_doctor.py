@@ -11,10 +11,11 @@ import pytest
 from gyro_fmu.doctor import environment as env
 from gyro_fmu.doctor import host
 from gyro_fmu.doctor import report as doc
-from gyro_fmu.fmu import build, slaves
-from gyro_fmu.fmu.slaves import load_slave
+from gyro_fmu.fmu import build
 from gyro_fmu.model.parameters import DEFAULT_PRESET, PRESETS
 from gyro_fmu.model.plant import GyroPlantModel
+from gyro_fmu.pythonfmu import slaves
+from gyro_fmu.pythonfmu.slaves import load_slave
 
 needs_c_host = pytest.mark.skipif(
     not sys.platform.startswith("linux") or env.find_compiler() is None,
@@ -73,7 +74,7 @@ def test_the_fmu_needs_no_settings_and_the_check_can_fail(report: doc.DoctorRepo
 @needs_c_host
 def test_c_host_exits_cleanly(report: doc.DoctorReport) -> None:
     """pythonfmu 0.7.0 frees its interpreter guard twice at exit (SIGABRT in a C host,
-    3 runs of 3 before gyro_fmu.upstream.pythonfmu_exit); with the workaround the host exits 0."""
+    3 runs of 3 before gyro_fmu.pythonfmu.upstream_exit); with the workaround the host exits 0."""
     check = report.check
     assert check is not None
     assert check.returncode == 0, check.stdout + check.stderr
@@ -113,11 +114,11 @@ def test_the_check_plan_is_the_slaves_and_without_its_source_every_output(
 def test_each_pythonfmu_fmu_runs_on_what_it_ships_alone(pythonfmu_models: Path,
                                                         tmp_path: Path, name: str) -> None:
     """A C host has no gyro_fmu but the FMU's own copy: the modules the adapter can reach
-    (gyro_fmu.fmu.shipping) suffice, nothing above the step travels, and the outputs are
+    (gyro_fmu.pythonfmu.shipping) suffice, nothing above the step travels, and the outputs are
     the native FMU's in the same host (both step the same core)."""
     import zipfile
 
-    from gyro_fmu.fmu.shipping import NEVER_IN_AN_FMU
+    from gyro_fmu.pythonfmu.shipping import NEVER_IN_AN_FMU
 
     fmu = pythonfmu_models / f"{name}.fmu"
     with zipfile.ZipFile(fmu) as z:

@@ -202,7 +202,7 @@ def test_a_python_host_simulates_our_fmus_one_after_another(models_dir, pythonfm
     """fmpy.simulate_fmu of RateProfile, then GyroPlant, GyroObserver, TwoToneDrive in one
     fresh process: each pythonfmu FMU ships gyro_fmu, the first one's folder is deleted
     after its run, and the second failed with "Failed to instantiate model" until
-    gyro_fmu/fmu/shipped_copies.py found the submodules in the living copy (the hook a
+    gyro_fmu/pythonfmu/shipped_copies.py found the submodules in the living copy (the hook a
     copy inside an FMU installs; an installed gyro_fmu installs none)."""
     import os
     import subprocess

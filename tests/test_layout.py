@@ -5,8 +5,9 @@ other; cosim (the generic FMI master, its stepping loop in the core) and model (
 its FMU interfaces) build on core;
 estimation (the observer and its FMU interface) and results (a run's files, written while
 it goes and read back in chunks) on model; sensor (the drive, plant and observer as one
-sensor FMU) on estimation; fmu (native and pythonfmu
-builds of those interfaces) on both; doctor on fmu; system
+sensor FMU) on estimation; pythonfmu (that flavour's slave adapter, shipping, C loader and
+upstream fixes) on those; fmu (native and pythonfmu builds of those interfaces) on all of
+them; doctor on fmu; system
 (scenarios, runs, SSP, container, sweeps) and selfcal on those below; cli on all; the
 FMU slaves of fmu_src/ sit on top. A module may import its own subpackage and any of a
 lower rank, never one of its own rank or higher.
@@ -23,8 +24,8 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "gyro_fmu"
 RANKS = {"errors": -1, "options": -1, "extras": -0.5, "logs": -0.5, "core": 0, "upstream": 0,
          "studies": 0, "outputs": 0, "cache": 0.5, "cosim": 1, "model": 1, "estimation": 2,
-         "results": 2, "sensor": 2.5, "fmu": 3, "doctor": 4, "system": 5, "selfcal": 5,
-         "spec": 6, "cli": 7, "fmu_src": 8}
+         "results": 2, "sensor": 2.5, "pythonfmu": 2.75, "fmu": 3, "doctor": 4, "system": 5,
+         "selfcal": 5, "spec": 6, "cli": 7, "fmu_src": 8}
 #: Left for 0.1 FMUs only: raises a message on import (see its docstring).
 COMPAT = {PACKAGE / "fmi.py"}
 MAX_LINES = 450

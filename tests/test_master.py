@@ -23,7 +23,8 @@ from gyro_fmu.cosim.master import (
     CoSimulationError,
     run_cosimulation,
 )
-from gyro_fmu.fmu.build import ensure_current, is_pythonfmu, prebuilt_fmu, stale_sources
+from gyro_fmu.fmu.build import ensure_current, is_pythonfmu, prebuilt_fmu
+from gyro_fmu.pythonfmu.build import stale_sources
 from gyro_fmu.system.run import run_fmus
 from gyro_fmu.system.scenario import scenario
 

@@ -68,8 +68,9 @@ def test_each_slave_declares_its_reference_inputs_and_is_loaded_under_a_private_
     inside an FMU (that name in sys.modules would shadow the FMU's own slave)."""
     import sys
 
-    from gyro_fmu.fmu import build, slaves
+    from gyro_fmu.fmu import build
     from gyro_fmu.fmu.reference import reference_inputs
+    from gyro_fmu.pythonfmu import slaves
 
     assert sorted(build.PYTHONFMU_NAMES) == sorted(
         p.stem for p in slaves.source_dir().glob("[!_]*.py"))

@@ -16,10 +16,10 @@ import pytest
 from fmpy import read_model_description
 from fmu_harness import Instance, assert_bad_input_refused, assert_state_round_trip
 
-from gyro_fmu.fmu.slave import UNITS
 from gyro_fmu.model.loops import OUTPUTS, LoopSettings, LoopsModel
 from gyro_fmu.model.resonator import ResonatorModel, ResonatorParameters
 from gyro_fmu.model.selfcal_interfaces import LOOPS_RENAMED
+from gyro_fmu.model.units import UNITS
 from gyro_fmu.selfcal.inprocess import COLUMNS, CarrierSimulation
 from gyro_fmu.selfcal.run import run_fmus
 

@@ -91,7 +91,7 @@ def test_pythonfmu_still_takes_the_uri_undecoded(pythonfmu_models: Path, tmp_pat
                           text=True, timeout=120)
     assert proc.returncode != 0, ("pythonfmu instantiated from a non-ASCII folder: "
                                   "fixed upstream? then decoded_uri in "
-                                  "gyro_fmu/upstream/python_loader.c may go")
+                                  "gyro_fmu/pythonfmu/python_loader.c may go")
     ours = base / "ours"
     with zipfile.ZipFile(pythonfmu_models / "TwoToneDrive.fmu") as z:
         z.extractall(ours)
@@ -136,7 +136,7 @@ def test_pythonfmu_still_answers_terminated_after_a_discard(pythonfmu_models: Pa
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.split() == ["2", "1"], (
         f"pythonfmu answered {out.stdout!r}: fixed upstream? then the fmi2Terminated answer "
-        "of gyro_fmu/upstream/python_loader.c may go")
+        "of gyro_fmu/pythonfmu/python_loader.c may go")
     ours = tmp_path / "ours"
     with zipfile.ZipFile(pythonfmu_models / "GyroPlant.fmu") as z:
         z.extractall(ours)
@@ -148,7 +148,7 @@ def test_pythonfmu_still_answers_terminated_after_a_discard(pythonfmu_models: Pa
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="pythonfmu's linux64 binary")
 def test_pythonfmu_still_aborts_a_c_host_at_exit(pythonfmu_models: Path, tmp_path: Path) -> None:
     """pythonfmu 0.7.0 frees its interpreter guard twice at process exit. With scipy
-    loaded in the FMU's Python and gyro_fmu.upstream.pythonfmu_exit switched off in the
+    loaded in the FMU's Python and gyro_fmu.pythonfmu.upstream_exit switched off in the
     FMU's own copy, the C host of `gyro-fmu doctor` crashes after its run (measured 3 of
     3). Our FMUs as shipped exit 0 (their adapters load numpy only; measured: they exit 0
     even with the workaround off, and with scipy loaded they crash with it on too, so the
@@ -166,7 +166,7 @@ def test_pythonfmu_still_aborts_a_c_host_at_exit(pythonfmu_models: Path, tmp_pat
     environment = doc.doctor(compile_host=False, fmu=fmu).environment()
     info = host.unpack_fmu(fmu, tmp_path / "off")
     package = info.resources / "gyro_fmu"
-    shipped = package / "upstream" / "pythonfmu_exit.py"
+    shipped = package / "pythonfmu" / "upstream_exit.py"
     shipped.write_text(shipped.read_text().replace(
         "def install(binary: Path) -> bool:",
         "def install(binary: Path) -> bool:\n    return False\n\n\n"
@@ -177,7 +177,7 @@ def test_pythonfmu_still_aborts_a_c_host_at_exit(pythonfmu_models: Path, tmp_pat
     assert all(r.reached_end for r in runs), runs[0].stdout + runs[0].stderr
     assert any(r.crashed_at_exit for r in runs), (
         "no crash at exit without the workaround: fixed upstream? then "
-        "gyro_fmu.upstream.pythonfmu_exit may go")
+        "gyro_fmu.pythonfmu.upstream_exit may go")
     on = host.run_host(exe, host.unpack_fmu(fmu, tmp_path / "on"), environment, "on", steps=3)
     assert on.returncode == 0 and not on.crashed_at_exit, on.stdout + on.stderr
 

@@ -13,8 +13,8 @@ import re
 import site
 from pathlib import Path
 
-from ..fmu.loader import find_compiler, fmi2_header_dir
-from ..fmu.python_env import (
+from ..pythonfmu.loader import find_compiler, fmi2_header_dir
+from ..pythonfmu.python_env import (
     REQUIRED_MODULES,
     LibPython,
     find_libpython,

@@ -18,7 +18,7 @@ from xml.etree import ElementTree
 
 from ..cosim.archives import archive_problem
 from ..errors import GyroFmuError
-from ..fmu.slaves import load_slave
+from ..pythonfmu.slaves import load_slave
 from .environment import fmi2_header_dir
 
 #: Source of the C host, shipped as package data.
@@ -136,7 +136,7 @@ def unpack_fmu(fmu: Path, dest: Path) -> FmuInfo:
 
 def check_plan(info: FmuInfo) -> CheckPlan:
     """What the check holds and reads: the DOCTOR_CHECK its slave class declares (found
-    by model identifier in the slave-source folder, `gyro_fmu.fmu.slaves.load_slave`).
+    by model identifier in the slave-source folder, `gyro_fmu.pythonfmu.slaves.load_slave`).
     Without one, no inputs and every Real output: an FMU given by path whose slave
     source is not here (or fails to load), a slave declaring None, or a plan naming
     variables this FMU does not have."""

@@ -21,7 +21,7 @@ from pathlib import Path
 
 from ..errors import GyroFmuError
 from ..fmu.build import MODELS_DIR
-from ..fmu.loader import recorded_python
+from ..pythonfmu.loader import recorded_python
 from .environment import (
     GLIBC_NEEDED,
     REQUIRED_MODULES,

@@ -20,31 +20,19 @@ modules have unique names.
 
 from __future__ import annotations
 
-import functools
 import os
 import shutil
 import tempfile
-import warnings
 import zipfile
-import zlib
 from pathlib import Path
-from typing import Any
 
+from ..cache import size_and_crc
 from ..errors import GyroFmuError
-from ..extras import require
-from .shipping import shipped_package_files
-from .slaves import source_dir
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1]
 #: Default folder of the built FMUs: relative, so it is models/ under the working
 #: directory at the time of use.
 MODELS_DIR = Path("models")
-
-
-def _pythonfmu_builder() -> Any:
-    """pythonfmu's FmuBuilder, imported when the pythonfmu flavour is built: copying the
-    prebuilt native FMUs (every `gyro-fmu run`) loads no pythonfmu."""
-    return require("pythonfmu.builder", "pythonfmu").FmuBuilder
 
 
 #: Capability flags, each true in fact (tests/test_fmu_quality.py holds them).
@@ -114,50 +102,24 @@ def build_fmu(name: str, dest: Path = MODELS_DIR, reference: bool = True,
         raise ValueError(f"flavour={flavour!r}: use one of {FLAVOURS}")
     if name in NATIVE_NAMES and flavour == "native":
         return copy_fmu(prebuilt_fmu(name), Path(dest))
-    sources = source_dir()
-    if sources is None:
-        raise FileNotFoundError("gyro_fmu.fmu_src (the FMU slave sources) is not installed: "
-                                "reinstall gyro_fmu from its wheel or checkout")
-    script = sources / f"{name}.py"
-    if not script.exists():
-        raise FileNotFoundError(
-            f"no FMU source {script}: the FMU names are {list(FMU_NAMES)}"
-        )
+    from ..pythonfmu.build import build_flavour_fmu
+
+    return build_flavour_fmu(name, Path(dest), CAPABILITIES, FMU_NAMES,
+                             finish=_finish if reference else _document)
+
+
+def _finish(path: Path) -> None:
+    """Reference results simulated and stored in the FMU, then its documentation."""
+    from .reference import write_reference
+
+    write_reference(path)
+    _document(path)
+
+
+def _document(path: Path) -> None:
     from .docs import add_documentation
 
-    dest = Path(dest)
-    dest.mkdir(parents=True, exist_ok=True)
-    # Built in a folder of its own and moved into place whole: a process reading
-    # dest/NAME.fmu meanwhile sees the old archive or the new one, never a partial one.
-    with tempfile.TemporaryDirectory(dir=dest, prefix=f".{name}-") as tmp:
-        package = Path(tmp) / "stage" / "gyro_fmu"
-        for archived, f in shipped_package_files(script).items():
-            target = package / archived.removeprefix("resources/gyro_fmu/")
-            target.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(f, target)
-        path = Path(_pythonfmu_builder().build_FMU(script, dest=tmp,
-                                                   project_files=[package], **CAPABILITIES))
-        _install_loader(path)
-        if reference:
-            from .reference import write_reference
-
-            write_reference(path)
-        add_documentation(path)
-        final = dest / path.name
-        os.replace(path, final)
-    return final
-
-
-def _install_loader(path: Path) -> None:
-    """Our loader in front of pythonfmu's binary (fmu/loader.py), so a non-Python host
-    needs no settings; without a C compiler the FMU keeps pythonfmu's binary alone."""
-    from .loader import LoaderUnavailableError, install_loader
-
-    try:
-        install_loader(path)
-    except LoaderUnavailableError as exc:
-        warnings.warn(f"{path.stem}: no Python loader ({exc}); a non-Python host needs the "
-                      "settings `gyro-fmu doctor` prints", stacklevel=3)
+    add_documentation(path)
 
 
 def build_all(dest: Path = MODELS_DIR, names: tuple[str, ...] = FMU_NAMES,
@@ -175,40 +137,6 @@ def is_pythonfmu(fmu: Path) -> bool:
         return False
 
 
-def stale_sources(fmu: Path, name: str) -> list[str]:
-    """The Python sources FMU `fmu` (built from fmu_src/NAME.py) ships differently from
-    this tree; empty when it is current. A stale FMU would run its old slave adapter on
-    the host's newer gyro_fmu (modules are cached per process) and fail obscurely.
-    Compares sizes and CRC-32s (the archive stores both), so nothing is decompressed.
-    Without a source tree (gyro_fmu running from inside an FMU) there is nothing to
-    compare with, and the FMU counts as current."""
-    sources = source_dir()
-    source = sources / f"{name}.py" if sources else None
-    if source is None or not source.is_file():
-        return []
-    tree = {f"resources/{name}.py": source, **shipped_package_files(source)}
-    try:
-        with zipfile.ZipFile(fmu) as z:
-            shipped = {i.filename: (i.file_size, i.CRC) for i in z.infolist()
-                       if i.filename in tree or (i.filename.startswith("resources/gyro_fmu/")
-                                                 and i.filename.endswith((".py", ".c")))}
-    except (OSError, zipfile.BadZipFile):
-        return [str(fmu)]
-    return sorted(n for n in tree.keys() | shipped.keys()
-                  if n not in tree or shipped.get(n) != _size_and_crc(tree[n]))
-
-
-def _size_and_crc(path: Path) -> tuple[int, int]:
-    stat = path.stat()
-    return _size_and_crc_of(str(path), stat.st_mtime_ns, stat.st_size)
-
-
-@functools.lru_cache(maxsize=1024)
-def _size_and_crc_of(path: str, mtime_ns: int, size: int) -> tuple[int, int]:
-    """Cached on the file's modification time: a check before every run stays cheap."""
-    return size, zlib.crc32(Path(path).read_bytes())
-
-
 def ensure_current(names: tuple[str, ...] = FMU_NAMES, dest: Path = MODELS_DIR) -> list[Path]:
     """Put the named FMUs into dest where they are missing or not the prebuilt native ones;
     an FMU of the pythonfmu flavour there is kept (rebuilt in its flavour when its
@@ -218,8 +146,10 @@ def ensure_current(names: tuple[str, ...] = FMU_NAMES, dest: Path = MODELS_DIR) 
     for name in names:
         path = dest / f"{name}.fmu"
         if path.exists() and is_pythonfmu(path):  # a flavour built on request: kept while
-            if stale_sources(path, name):           # its sources are current
+            from ..pythonfmu.build import stale_sources  # its sources are current
+
+            if stale_sources(path, name):
                 built.append(build_fmu(name, dest, flavour="pythonfmu"))
-        elif not path.exists() or _size_and_crc(path) != _size_and_crc(prebuilt_fmu(name)):
+        elif not path.exists() or size_and_crc(path) != size_and_crc(prebuilt_fmu(name)):
             built.append(build_fmu(name, dest))
     return built

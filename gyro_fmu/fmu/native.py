@@ -31,11 +31,11 @@ from ..core import structs
 from ..estimation.interface import OBSERVER, OBSERVER_SOURCES
 from ..model.interfaces import PHYSICS_INTERFACES, FmuInterface
 from ..model.selfcal_interfaces import SELFCAL_INTERFACES
+from ..model.units import UNITS
 from ..sensor.interface import SENSOR
 from ..sensor.platform import PLATFORM
 from .macho import universal_macho
 from .sources import DECLARATION_FILES, sources_root  # noqa: F401 - part of this API
-from .units import UNITS
 
 
 @dataclass(frozen=True)

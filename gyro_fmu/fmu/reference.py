@@ -49,10 +49,10 @@ def reference_inputs(model_name: str, stop_time: float, step: float) -> np.ndarr
     """Inputs of an FMU's reference run (see `input_table`), or None for none.
 
     Each slave declares its own (`reference_inputs(stop_time, step)` of its class in
-    the slave-source folder, found by `gyro_fmu.fmu.slaves.load_slave`); an FMU without
+    the slave-source folder, found by `gyro_fmu.pythonfmu.slaves.load_slave`); an FMU without
     a slave source there, or a slave that declares nothing, runs without inputs.
     """
-    from .slaves import load_slave
+    from ..pythonfmu.slaves import load_slave
 
     slave = load_slave(model_name)
     declared = getattr(slave, "reference_inputs", None)

@@ -35,7 +35,7 @@ class Var:
     name: str
     causality: str  #: "parameter", "input" or "output"
     start: float | int
-    unit: str | None  #: key of gyro_fmu.fmu.units.UNITS; None only for Integers
+    unit: str | None  #: key of gyro_fmu.model.units.UNITS; None only for Integers
     description: str
     integer: bool = False
     min: float | None = None

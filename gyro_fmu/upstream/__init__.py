@@ -3,16 +3,23 @@
 Each module names the upstream version and the defect; tests/test_upstream.py holds one
 canary per defect that fails once upstream behaves (then the workaround can go).
 
+The pythonfmu flavour's workarounds live with that flavour (gyro_fmu/pythonfmu/):
+
 - pythonfmu 0.7.0 frees its interpreter guard twice at process exit, so a C host
-  crashes after its run: `pythonfmu_exit`
+  crashes after its run: `gyro_fmu.pythonfmu.upstream_exit`
   (canary `test_pythonfmu_still_aborts_a_c_host_at_exit`).
 - pythonfmu 0.7.0 cuts "file://" off the resource URI and decodes nothing, so a folder
   with a non-ASCII letter or one of ' $ + , # % ? * [ ] is not found: `python_loader.c`,
-  decoded_uri (canary `test_pythonfmu_still_takes_the_uri_undecoded`).
+  decoded_uri, in gyro_fmu/pythonfmu/ (canary
+  `test_pythonfmu_still_takes_the_uri_undecoded`).
 - pythonfmu 0.7.0 returns fmi2OK from every setter, maps an exception to fmi2Fatal and
   answers fmi2Terminated = true after any fmi2Discard: `python_loader.c` with
-  `pythonfmu_status` (the slave's line to it) and gyro_fmu.fmu.slave's guarded callbacks
+  `gyro_fmu.pythonfmu.upstream_status` (the slave's line to it) and
+  gyro_fmu.pythonfmu.slave's guarded callbacks
   (canary `test_pythonfmu_still_answers_terminated_after_a_discard`).
+
+Here, those of the other libraries:
+
 - fmpy 0.3.32 keeps one process-global pointer behind its logger proxy, so a run with
   its own logger leaves the default callbacks calling freed memory: `fmpy_logger`
   (canary `test_fmpy_still_has_one_global_logger_proxy`).

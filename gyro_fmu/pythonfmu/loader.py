@@ -29,7 +29,7 @@ from xml.etree import ElementTree
 from ..errors import GyroFmuError
 from .python_env import REQUIRED_MODULES, find_libpython, python_home, required_paths
 
-LOADER_SOURCE = Path(__file__).resolve().parents[1] / "upstream" / "python_loader.c"
+LOADER_SOURCE = Path(__file__).resolve().parent / "python_loader.c"
 ENV_FILE = "resources/python_env.txt"
 MARKER = b"@(#)pythonfmu-shim"
 
@@ -103,7 +103,7 @@ def python_env_text() -> str:
     folders, missing = required_paths(REQUIRED_MODULES)
     if missing:
         raise LoaderUnavailableError(f"{', '.join(missing)} not importable here")
-    lines = ["# The Python this FMU was built with (gyro_fmu/fmu/loader.py).",
+    lines = ["# The Python this FMU was built with (gyro_fmu/pythonfmu/loader.py).",
              "# Overrides: PYTHONFMU_LIBPYTHON, PYTHONHOME (kept if set), PYTHONPATH (prepended).",
              f"python_version={sys.version_info.major}.{sys.version_info.minor}",
              f"python_executable={sys.executable}",

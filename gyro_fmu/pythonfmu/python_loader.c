@@ -8,7 +8,7 @@
  * <modelIdentifier>_pythonfmu.so. On first use this loader
  *
  *   1. finds its own file (dladdr), the FMU root (three levels up) and reads
- *      resources/python_env.txt (written by gyro_fmu/fmu/loader.py from the Python
+ *      resources/python_env.txt (written by gyro_fmu/pythonfmu/loader.py from the Python
  *      that built the FMU): libpython path, PYTHONHOME, PYTHONPATH entries,
  *      Python version, the offset of pythonfmu's pyState shared_ptr;
  *   2. if Python is not already in the process (dlsym(RTLD_DEFAULT,
@@ -27,7 +27,7 @@
  * before fmi2Instantiate, also when Python is missing).
  *
  * Exit-time fix: pythonfmu 0.7.0 frees its interpreter guard twice at process
- * exit; gyro_fmu/fmu/pythonfmu_exit.py defuses it on the real binary (which the
+ * exit; gyro_fmu/pythonfmu/upstream_exit.py defuses it on the real binary (which the
  * slave finds as <modelIdentifier>_pythonfmu.so). The real binary is never
  * dlclose'd, since dlclose of it runs exactly that use after free.
  *
@@ -82,7 +82,7 @@ __asm__(".symver dlerror,dlerror@GLIBC_2.2.5");
 #define MAXPATH 4096
 #define MAXENTRIES 32
 
-/* Marker that gyro_fmu/fmu/loader.py looks for to recognise an installed loader. */
+/* Marker that gyro_fmu/pythonfmu/loader.py looks for to recognise an installed loader. */
 __attribute__((used)) static const char shim_marker[] = "@(#)" SHIM_VERSION;
 
 /* ------------------------------------------------------------------------ */
@@ -228,7 +228,7 @@ static void fix_hint(char *err, size_t size)
 {
     add(err, size,
         " How to fix: rebuild the FMU with the Python you want it to use (`gyro-fmu build`, "
-        "then `gyro_fmu/fmu/loader.py`), or edit %s, or set in the importer's environment "
+        "then `gyro_fmu/pythonfmu/loader.py`), or edit %s, or set in the importer's environment "
         "PYTHONFMU_LIBPYTHON=<path of libpython%s.so.1.0>, PYTHONHOME=<that Python's prefix> and "
         "PYTHONPATH=<its site-packages holding numpy and scipy> (LD_PRELOAD=<libpython> "
         "instead of PYTHONFMU_LIBPYTHON also works).",
@@ -388,7 +388,7 @@ static int load_real(char *err, size_t size)
     void *h;
     if (!is_file(real_path)) {
         add(err, size, "pythonfmu's binary %s is missing from the FMU (reinstall the shim with "
-            "gyro_fmu/fmu/loader.py).", real_path);
+            "gyro_fmu/pythonfmu/loader.py).", real_path);
         return 0;
     }
     h = dlopen(real_path, RTLD_NOW | RTLD_LOCAL);

@@ -17,11 +17,11 @@ from pathlib import Path
 
 PACKAGE_DIR = Path(__file__).resolve().parent.parent
 #: Imported by name at run time (gyro_fmu/__init__), invisible to the import statements.
-DYNAMIC_IMPORTS = ("gyro_fmu.fmu.shipped_copies",)
+DYNAMIC_IMPORTS = ("gyro_fmu.pythonfmu.shipped_copies",)
 #: Concerns above the step: never imported inside an FMU.
 NEVER_IN_AN_FMU = ("gyro_fmu.cli", "gyro_fmu.studies", "gyro_fmu.spec", "gyro_fmu.system",
                    "gyro_fmu.selfcal", "gyro_fmu.doctor", "gyro_fmu.cosim",
-                   "gyro_fmu.fmu.build", "gyro_fmu.fmu.native")
+                   "gyro_fmu.fmu.build", "gyro_fmu.fmu.native", "gyro_fmu.pythonfmu.build")
 
 
 class ShippingError(RuntimeError):

@@ -14,7 +14,7 @@ and implements `setup()` and `advance()` (and, when it keeps library objects,
   refused at set time with an error-level log message (the previous value is
   kept) and the next fmi2DoStep returns fmi2Discard without advancing; a host that
   retries that very step (fmpy.simulate_fmu re-sends the same bad value) gets it
-  done with the kept value and fmi2Warning. The C loader (upstream/pythonfmu_status.py) delivers
+  done with the kept value and fmi2Warning. The C loader (pythonfmu/upstream_status.py) delivers
   what pythonfmu cannot: fmi2Error for fmi2DoStep before initialization, and
   fmi2Terminated answered false after a recoverable refusal, fmi2Error once the
   instance cannot step (a failed initialization, parameter, state restore, or a step
@@ -24,7 +24,7 @@ and implements `setup()` and `advance()` (and, when it keeps library objects,
   of FMU state are exact; a state is restored only if it has exactly the structure
   this slave saves (state.py), never a crash.
 
-Inside an FMU, the base class also installs `pythonfmu_exit`: pythonfmu 0.7.0
+Inside an FMU, the base class also installs `upstream_exit`: pythonfmu 0.7.0
 frees its interpreter guard twice at process exit, which aborts non-Python hosts
 (measured with `gyro-fmu doctor`: the abort is the double free and follows numpy or
 scipy being loaded at all, not the place of the numpy import; docs/fmi-notes.md).
@@ -48,9 +48,9 @@ from pythonfmu.enums import Fmi2Initial, Fmi2Status
 from pythonfmu.variables import Integer, Real
 
 from ..model.interfaces import Var, dataclass_parameters  # noqa: F401 (re-exported)
-from ..upstream.pythonfmu_status import ERROR, WARNING, HostStatus, host_library_mismatch
+from ..model.units import UNITS
 from . import state as fmu_state
-from .units import UNITS
+from .upstream_status import ERROR, WARNING, HostStatus, host_library_mismatch
 
 _FMAX = sys.float_info.max
 
@@ -100,11 +100,11 @@ class GyroSlave(Fmi2Slave):
             mismatch = host_library_mismatch(Path(self.resources))
             if mismatch:
                 self.log(f"{self.modelName}: {mismatch}", Fmi2Status.warning)
-            from ..upstream import pythonfmu_exit
+            from . import upstream_exit
 
             platform = Path(self.resources).parent / "binaries" / "linux64"
             binary = platform / f"{self.modelName}_pythonfmu.so"  # behind our loader
-            pythonfmu_exit.install(binary if binary.is_file() else
+            upstream_exit.install(binary if binary.is_file() else
                                    platform / f"{self.modelName}.so")
 
     @staticmethod
