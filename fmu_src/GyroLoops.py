@@ -11,8 +11,6 @@ from gyro_fmu.pythonfmu.slave import GyroSlave
 class GyroLoops(GyroSlave):
     description = LOOPS.description
     VARIABLES = LOOPS.variables
-    DOCTOR_CHECK = LOOPS.doctor_check
-    reference_inputs = staticmethod(LOOPS.reference_inputs)
     default_experiment = DefaultExperiment(0.0, *LOOPS.default_experiment)
 
     def setup(self) -> None:

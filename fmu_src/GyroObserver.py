@@ -15,9 +15,6 @@ _MAX_WARNINGS = 3
 class GyroObserver(GyroSlave):
     description = OBSERVER.description
     VARIABLES = OBSERVER.variables
-    #: `gyro-fmu doctor`'s C-host check: None, no inputs set and every Real output read.
-    DOCTOR_CHECK = None
-    reference_inputs = staticmethod(OBSERVER.reference_inputs)
 
     state_holder = "observer"
     #: Set by the parameters: a restored state must have the instance's own.

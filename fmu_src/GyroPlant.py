@@ -9,8 +9,6 @@ from gyro_fmu.pythonfmu.slave import GyroSlave
 class GyroPlant(GyroSlave):
     description = PLANT.description
     VARIABLES = PLANT.variables
-    DOCTOR_CHECK = PLANT.doctor_check
-    reference_inputs = staticmethod(PLANT.reference_inputs)
 
     def setup(self) -> None:
         from gyro_fmu.model.parameters import GyroParameters

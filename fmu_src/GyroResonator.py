@@ -11,8 +11,6 @@ from gyro_fmu.pythonfmu.slave import GyroSlave, dataclass_from_parameters
 class GyroResonator(GyroSlave):
     description = RESONATOR.description
     VARIABLES = RESONATOR.variables
-    DOCTOR_CHECK = RESONATOR.doctor_check
-    reference_inputs = staticmethod(RESONATOR.reference_inputs)
     default_experiment = DefaultExperiment(0.0, *RESONATOR.default_experiment)
 
     def setup(self) -> None:

@@ -7,8 +7,6 @@ from gyro_fmu.pythonfmu.slave import GyroSlave
 class RateProfile(GyroSlave):
     description = RATE.description
     VARIABLES = RATE.variables
-    DOCTOR_CHECK = RATE.doctor_check
-    reference_inputs = staticmethod(RATE.reference_inputs)
 
     def setup(self) -> None:
         from gyro_fmu.model.rate import RateKind

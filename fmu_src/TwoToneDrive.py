@@ -7,8 +7,6 @@ from gyro_fmu.pythonfmu.slave import GyroSlave
 class TwoToneDrive(GyroSlave):
     description = DRIVE.description
     VARIABLES = DRIVE.variables
-    DOCTOR_CHECK = DRIVE.doctor_check
-    reference_inputs = staticmethod(DRIVE.reference_inputs)
 
     def setup(self) -> None:
         from gyro_fmu.model.drive import TwoToneDrive as Drive

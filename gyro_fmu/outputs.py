@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import contextlib
+import csv
 import functools
 import hashlib
 import json
@@ -155,6 +156,29 @@ def check_pair(summary: dict, results: Path) -> None:
                 f"{path} is not the {path.name} of run {record.get('run_id')} that "
                 f"summary.json describes ({record.get('rows')} rows): they belong to "
                 "different runs, or one was changed; rerun the scenario")
+
+
+def table_columns(rows: list[dict]) -> list[str]:
+    """Every key any row has, in the order first seen."""
+    columns: list[str] = []
+    for r in rows:
+        columns += [c for c in r if c not in columns]
+    return columns
+
+
+def csv_writer(rows: list[dict]) -> Callable[[Path], int]:
+    """write(path): the rows as a CSV with every column any row has (table_columns; a
+    missing or None value empty); returns the number of rows (for write_table_and_summary)."""
+    columns = table_columns(rows)
+
+    def write(path: Path) -> int:
+        with path.open("w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=columns)
+            w.writeheader()
+            w.writerows({c: r.get(c) for c in columns} for r in rows)
+        return len(rows)
+
+    return write
 
 
 def write_json(path: Path, data: dict, **dumps: object) -> Path:

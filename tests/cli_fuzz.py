@@ -102,18 +102,15 @@ def _invoke(argv: list[str], folder: Path, budget: float
     err, out = io.StringIO(), io.StringIO()
     code: int | None = None
     escaped = None
-    # what an earlier trial cut by its alarm left for the garbage collector (a generator
-    # or a file of the interrupted run, whose finalizer warns) is collected here, so that
-    # its warnings are no later trial's (they were: a ResourceWarning and the overflows of
-    # a 1e300 trial recorded under the next one, design-drive --seed 0; and again two trials
-    # after a 1e300 trial that was not cut but warned: its garbage, in a cycle, waited for
-    # an automatic collection). Only after a cut trial or one that warned: a collection
-    # costs 57 ms, 45 s over every trial.
-    if _CUT[0]:
-        with warnings.catch_warnings(record=True):
-            warnings.simplefilter("always")
-            gc.collect()
-        _CUT[0] = False
+    # what an earlier trial left for the garbage collector (a generator or a file of an
+    # interrupted run, whose finalizer warns) is collected here, so that its warnings are
+    # no later trial's (they were, twice: a ResourceWarning and the overflows of a 1e300
+    # trial recorded one or two trials later, design-drive --seed 0). Before every trial:
+    # `fuzz` froze what existed before the first one, so a collection walks only what the
+    # trials made (a full one over the whole heap cost 57 ms, 45 s over every trial).
+    with warnings.catch_warnings(record=True):
+        warnings.simplefilter("always")
+        gc.collect()
     previous = signal.signal(signal.SIGALRM, _alarm)
     cwd = os.getcwd()
     with warnings.catch_warnings(record=True) as caught:
@@ -133,7 +130,6 @@ def _invoke(argv: list[str], folder: Path, budget: float
             escaped = "".join(traceback.format_exception_only(type(exc), exc)).strip()
         finally:
             _disarm(previous, cwd)
-    _CUT[0] = code == 130 or escaped is not None or bool(caught)
     warned = tuple(f"{w.category.__name__}: {w.message}" for w in caught)
     return code, out.getvalue(), err.getvalue(), escaped, warned
 
@@ -186,7 +182,6 @@ def run_trial(command: str, option: str | None, value: str, folder: Path, out: s
 
 
 #: Whether the last trial was cut (its alarm) or escaped: the next one collects first.
-_CUT = [False]
 #: Whether a trial is running: the alarm interrupts only then. Under load an alarm came
 #: late, after the trial, and stopped the whole test session from a thread join.
 _ARMED = [False]
@@ -222,14 +217,19 @@ def fuzz(folder: Path, values: tuple[str, ...] = VALUES, budget: float = 1.5,
     import matplotlib.pyplot  # noqa: F401 - an alarm inside its import breaks it for good
 
     trials, base = [], {}
-    for k, (command, option) in enumerate(options or list(typed_options())):
-        seconds = BUDGET.get(command, budget)
-        if command not in base:  # also imports its stack, which an alarm must not cut
-            b = run_trial(command, None, "", folder, f"base{k}", max(seconds, 10.0))
-            base[command] = b.said if b.code == 2 else None
-        for j, value in enumerate(values):
-            trials.append(run_trial(command, option, value, folder, f"out{k}-{j}", seconds,
-                                    base[command]))
+    gc.collect()
+    gc.freeze()  # the collection before each trial walks only what the trials made
+    try:
+        for k, (command, option) in enumerate(options or list(typed_options())):
+            seconds = BUDGET.get(command, budget)
+            if command not in base:  # also imports its stack, which an alarm must not cut
+                b = run_trial(command, None, "", folder, f"base{k}", max(seconds, 10.0))
+                base[command] = b.said if b.code == 2 else None
+            for j, value in enumerate(values):
+                trials.append(run_trial(command, option, value, folder, f"out{k}-{j}",
+                                        seconds, base[command]))
+    finally:
+        gc.unfreeze()
     return trials
 
 

@@ -1,12 +1,43 @@
-"""Shared fixtures: FMUs freshly built from this checkout, once per test session."""
+"""Shared fixtures: FMUs freshly built from this checkout, once per test session.
+
+GYRO_FMU_TEST_WITHOUT=pythonfmu (a comma-separated list of top-level modules) runs the
+suite as if those packages were not installed: every import of them fails here, and the
+tests that need them skip, naming the extra (issue 47: everything else passes without the
+pythonfmu flavour)."""
 
 from __future__ import annotations
 
+import os
+import sys
 from pathlib import Path
 
 import pytest
 
-from gyro_fmu.fmu.build import build_all
+WITHOUT = tuple(m for m in os.environ.get("GYRO_FMU_TEST_WITHOUT", "").split(",") if m)
+
+
+class _Refuse:
+    """An import finder that refuses the modules of WITHOUT, as if not installed."""
+
+    @staticmethod
+    def find_spec(name, path=None, target=None):
+        if name.split(".")[0] in WITHOUT:
+            raise ModuleNotFoundError(f"No module named {name!r} (GYRO_FMU_TEST_WITHOUT)",
+                                      name=name)
+
+
+if WITHOUT:
+    for loaded in [m for m in sys.modules if m.split(".")[0] in WITHOUT]:
+        del sys.modules[loaded]
+    sys.meta_path.insert(0, _Refuse)
+
+from gyro_fmu.fmu.build import build_all  # noqa: E402
+
+
+def needs_pythonfmu() -> None:
+    """Skip the calling test or fixture where the pythonfmu extra is not installed."""
+    pytest.importorskip("pythonfmu", reason="the pythonfmu flavour needs the pythonfmu extra "
+                        "(pip install 'gyro_fmu[pythonfmu]')")
 
 
 @pytest.fixture(scope="session")
@@ -23,6 +54,7 @@ def pythonfmu_models(tmp_path_factory: pytest.TempPathFactory) -> Path:
     request."""
     from gyro_fmu.fmu.build import PYTHONFMU_NAMES
 
+    needs_pythonfmu()
     dest = tmp_path_factory.mktemp("pythonfmu")
     build_all(dest, PYTHONFMU_NAMES, flavour="pythonfmu")
     return dest

@@ -11,11 +11,11 @@ import pytest
 from gyro_fmu.doctor import environment as env
 from gyro_fmu.doctor import host
 from gyro_fmu.doctor import report as doc
+from gyro_fmu.estimation.interface import OBSERVER
 from gyro_fmu.fmu import build
+from gyro_fmu.model.interfaces import PLANT
 from gyro_fmu.model.parameters import DEFAULT_PRESET, PRESETS
 from gyro_fmu.model.plant import GyroPlantModel
-from gyro_fmu.pythonfmu import slaves
-from gyro_fmu.pythonfmu.slaves import load_slave
 
 needs_c_host = pytest.mark.skipif(
     not sys.platform.startswith("linux") or env.find_compiler() is None,
@@ -35,7 +35,7 @@ def test_c_host_reproduces_python_plant(report: doc.DoctorReport) -> None:
     check = report.check
     assert check is not None, report.format()
     assert check.reached_end, report.format()
-    inputs, names = load_slave("GyroPlant").DOCTOR_CHECK
+    inputs, names = PLANT.doctor_check
     model = GyroPlantModel(PRESETS[DEFAULT_PRESET])
     expected = []
     for _ in range(host.CHECK_STEPS):
@@ -84,17 +84,19 @@ def test_c_host_exits_cleanly(report: doc.DoctorReport) -> None:
     assert ("CRASHED AT PROCESS EXIT" in text) == check.crashed_at_exit
 
 
-def test_the_check_plan_is_the_slaves_and_without_its_source_every_output(
+def test_the_check_plan_is_the_declarations_and_without_one_every_output(
         models_dir: Path, pythonfmu_models: Path, tmp_path: Path,
         monkeypatch: pytest.MonkeyPatch) -> None:
-    """The doctor reads what to hold and read from the slave class; for an FMU whose
-    slave source is not available it holds no inputs and reads every Real output."""
+    """The doctor reads what to hold and read from the FMU's declaration (whatever its
+    flavour); for an FMU that is none of ours it holds no inputs and reads every Real
+    output."""
     info = host.unpack_fmu(pythonfmu_models / "GyroPlant.fmu", tmp_path / "fmu")
-    assert host.check_plan(info) == load_slave("GyroPlant").DOCTOR_CHECK
+    assert host.check_plan(info) == PLANT.doctor_check
     observer = host.unpack_fmu(models_dir / "GyroObserver.fmu", tmp_path / "observer")
-    assert load_slave("GyroObserver").DOCTOR_CHECK is None
-    assert host.check_plan(observer) == ({}, observer.outputs) and len(observer.outputs) == 25
-    monkeypatch.setattr(slaves, "source_dir", lambda: None)
+    inputs, read = host.check_plan(observer)
+    assert (inputs, read) == ({}, tuple(OBSERVER.doctor_check[1]))  # its 20 estimates
+    assert set(read) < set(observer.outputs) and len(read) == 20
+    monkeypatch.setattr(host, "NATIVE_INTERFACES", {})
     assert host.check_plan(info) == ({}, ("x", "vx", "y", "vy", "ax", "ay"))
     compiler = env.find_compiler()
     if not sys.platform.startswith("linux") or compiler is None:

@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pythonfmu.builder import FmuBuilder
 
 from gyro_fmu.cosim.instances import unpacked
 from gyro_fmu.cosim.master import (
@@ -65,6 +64,8 @@ def test_refused_parameters_surface_with_the_fmus_own_message(models_dir):
 
 def test_a_users_fmu_replaces_ours(models_dir, tmp_path):
     """A user's square-wave drive FMU (different name, same interface) runs in our system."""
+    FmuBuilder = pytest.importorskip("pythonfmu.builder", reason="the user's FMU is written "
+                                     "with pythonfmu (the pythonfmu extra)").FmuBuilder
     src = tmp_path / "UserSquareDrive.py"
     src.write_text(textwrap.dedent('''
         import math

@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 from fmpy import read_model_description
 from fmpy.ssp.ssd import read_ssd
-from pythonfmu.builder import FmuBuilder
 
 from gyro_fmu.cosim.master import Component, Connection, run_cosimulation
 from gyro_fmu.model.rate import RateKind, RateProfile
@@ -116,6 +115,8 @@ def test_libcosim_runs_the_package_like_the_fmpy_master(models_dir, tmp_path):
 @pytest.fixture(scope="module")
 def echo_fmu(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """y(t + h) = the u the master set for the step from t: shows when inputs are read."""
+    FmuBuilder = pytest.importorskip("pythonfmu.builder", reason="the echo FMU is written "
+                                     "with pythonfmu (the pythonfmu extra)").FmuBuilder
     folder = tmp_path_factory.mktemp("echo")
     src = folder / "Echo.py"
     src.write_text(textwrap.dedent('''

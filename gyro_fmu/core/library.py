@@ -43,11 +43,9 @@ def platform_tuple() -> str:
 
 
 #: The structs, as ctypes mirrors of their one declaration (gyro_fmu.core.structs).
-Params = structs.PARAMS.ctypes()
-PickoffNoise = structs.PICKOFF_NOISE.ctypes()
-State = structs.STATE.ctypes()
-TwoToneDrive = structs.TWO_TONE_DRIVE.ctypes()
-RateProfile = structs.RATE_PROFILE.ctypes()
+Params, PickoffNoise, State, TwoToneDrive, RateProfile = (
+    s.ctypes() for s in (structs.PARAMS, structs.PICKOFF_NOISE, structs.STATE,
+                         structs.TWO_TONE_DRIVE, structs.RATE_PROFILE))
 
 
 _D = POINTER(c_double)

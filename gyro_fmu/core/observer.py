@@ -25,12 +25,9 @@ _D = c_double
 
 
 #: The structs, as ctypes mirrors of their one declaration (gyro_fmu.core.structs).
-Tuning = structs.TUNING.ctypes()
-MonitorLimits = structs.MONITOR_LIMITS.ctypes()
-Monitor = structs.MONITOR.ctypes()
-Refit = structs.REFIT.ctypes()
-HeldMaps = structs.HELD.ctypes()
-Observer = structs.OBSERVER.ctypes()
+Tuning, MonitorLimits, Monitor, Refit, HeldMaps, Observer = (
+    s.ctypes() for s in (structs.TUNING, structs.MONITOR_LIMITS, structs.MONITOR,
+                         structs.REFIT, structs.HELD, structs.OBSERVER))
 
 
 _O = POINTER(Observer)

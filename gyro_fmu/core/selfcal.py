@@ -32,16 +32,9 @@ LOOP_OUTPUTS = structs.LOOP_OUTPUT_NAMES
 DEMOD_ORDER, DEMOD_CHANNELS = int(structs.DEMOD_ORDER), int(structs.DEMOD_CHANNELS)
 
 #: The structs, as ctypes mirrors of their one declaration (gyro_fmu.core.structs).
-ResonatorParams = structs.RESONATOR_PARAMS.ctypes()
 Rng = RNG.ctypes()
-ResonatorMaps = structs.RESONATOR_MAPS.ctypes()
-Resonator = structs.RESONATOR.ctypes()
-LoopSettings = structs.LOOP_SETTINGS.ctypes()
-LoopGains = structs.LOOP_GAINS.ctypes()
-LoopState = structs.LOOP_STATE.ctypes()
-LoopOutputs = structs.LOOP_OUTPUTS.ctypes()
-Loops = structs.LOOPS.ctypes()
-Demod = structs.DEMOD.ctypes()
+(ResonatorParams, ResonatorMaps, Resonator, LoopSettings, LoopGains, LoopState, LoopOutputs,
+ Loops, Demod) = (s.ctypes() for s in structs.STRUCTS)
 
 
 _P = POINTER(_D)

@@ -18,7 +18,7 @@ from xml.etree import ElementTree
 
 from ..cosim.archives import archive_problem
 from ..errors import GyroFmuError
-from ..pythonfmu.slaves import load_slave
+from ..fmu.interfaces import NATIVE_INTERFACES
 from .environment import fmi2_header_dir
 
 #: Source of the C host, shipped as package data.
@@ -135,16 +135,12 @@ def unpack_fmu(fmu: Path, dest: Path) -> FmuInfo:
 
 
 def check_plan(info: FmuInfo) -> CheckPlan:
-    """What the check holds and reads: the DOCTOR_CHECK its slave class declares (found
-    by model identifier in the slave-source folder, `gyro_fmu.pythonfmu.slaves.load_slave`).
-    Without one, no inputs and every Real output: an FMU given by path whose slave
-    source is not here (or fails to load), a slave declaring None, or a plan naming
+    """What the check holds and reads: the doctor_check its declaration gives
+    (FmuInterface, by model identifier, whatever flavour the FMU was built in). Without
+    one, no inputs and every Real output: an FMU that is none of ours, or a plan naming
     variables this FMU does not have."""
-    try:
-        slave = load_slave(info.model_identifier)
-    except Exception:  # a broken or foreign slave source must not stop the diagnosis
-        slave = None
-    plan = getattr(slave, "DOCTOR_CHECK", None)
+    interface = NATIVE_INTERFACES.get(info.model_identifier)
+    plan = None if interface is None else interface.doctor_check
     if plan is None or not {*plan[0], *plan[1]} <= info.real_vrs.keys():
         return {}, info.outputs
     return dict(plan[0]), tuple(plan[1])

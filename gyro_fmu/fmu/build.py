@@ -44,9 +44,9 @@ CAPABILITIES = {
     "canBeInstantiatedOnlyOncePerProcess": "false",
 }
 
-#: The FMUs of the product, in build order, by model identifier (= slave class = source
-#: file stem). What each one needs beyond its variables (reference inputs, doctor check)
-#: its slave class declares; `load_slave` reads it.
+#: The FMUs of the product, in build order, by model identifier (= the pythonfmu slave's
+#: class and source file stem). What each one needs beyond its variables (reference
+#: inputs, doctor check) its declaration gives (gyro_fmu.fmu.interfaces).
 FMU_NAMES = ("GyroPlant", "TwoToneDrive", "RateProfile", "GyroObserver", "GyroResonator",
              "GyroLoops", "GyroSensor", "StabilizedPlatform")
 #: The native C FMUs (gyro_fmu.fmu.native), prebuilt in the package: every one.

@@ -28,12 +28,10 @@ from pathlib import Path
 from xml.etree.ElementTree import Element, SubElement, indent, tostring
 
 from ..core import structs
-from ..estimation.interface import OBSERVER, OBSERVER_SOURCES
-from ..model.interfaces import PHYSICS_INTERFACES, FmuInterface
-from ..model.selfcal_interfaces import SELFCAL_INTERFACES
+from ..estimation.interface import OBSERVER_SOURCES
+from ..model.interfaces import FmuInterface
 from ..model.units import UNITS
-from ..sensor.interface import SENSOR
-from ..sensor.platform import PLATFORM
+from .interfaces import NATIVE_INTERFACES
 from .macho import universal_macho
 from .sources import DECLARATION_FILES, sources_root  # noqa: F401 - part of this API
 
@@ -62,8 +60,8 @@ TARGETS = (
     Target("aarch64-macos", "aarch64-darwin", None, ".dylib"),
 )
 FLAGS = ["-std=c99", "-O2", "-g0", "-s", "-ffp-contract=off", "-fno-fast-math", "-Wall", "-Wextra"]
-FMI_LAYER = ("instance.c", "fmi2.c", "fmi3.c")
-FMI_HEADERS = ("model.h", "instance.h")
+FMI_LAYER = ("instance.c", "instance_values.c", "instance_states.c", "fmi2.c", "fmi3.c")
+FMI_HEADERS = ("model.h", "instance.h", "instance_internal.h")
 #: The FMI standard's own headers (FMI 2.0.4, 3.0), taken at build time from fmpy, which
 #: ships them (fmpy/c-code): the repository keeps only code written here, and each FMU's
 #: sources/ carries them, as the Reference-FMUs' do.
@@ -78,12 +76,7 @@ GENERATION_TOOL = "gyro_fmu (native C, zig cc)"
 DEFAULT_EXPERIMENT = {"startTime": "0", "stopTime": "0.01", "stepSize": "5e-06"}
 
 
-#: The native FMUs, by model identifier: the physics' and the observer's declarations.
-NATIVE_INTERFACES: dict[str, FmuInterface] = {**PHYSICS_INTERFACES,
-                                              OBSERVER.identifier: OBSERVER,
-                                              **SELFCAL_INTERFACES,
-                                              SENSOR.identifier: SENSOR,
-                                              PLATFORM.identifier: PLATFORM}
+__all__ = ["NATIVE_INTERFACES"]  # gyro_fmu.fmu.interfaces: every native FMU's declaration
 
 class NativeBuildError(RuntimeError):
     """The C compiler failed or is missing."""

@@ -46,17 +46,13 @@ class ReferenceResultError(GyroFmuError, RuntimeError):
 
 
 def reference_inputs(model_name: str, stop_time: float, step: float) -> np.ndarray | None:
-    """Inputs of an FMU's reference run (see `input_table`), or None for none.
+    """Inputs of an FMU's reference run (see `input_table`), or None for none: its
+    declaration's (FmuInterface.reference_inputs, by model identifier, whatever flavour the
+    FMU was built in); an FMU that is none of ours runs without inputs."""
+    from .interfaces import NATIVE_INTERFACES
 
-    Each slave declares its own (`reference_inputs(stop_time, step)` of its class in
-    the slave-source folder, found by `gyro_fmu.pythonfmu.slaves.load_slave`); an FMU without
-    a slave source there, or a slave that declares nothing, runs without inputs.
-    """
-    from ..pythonfmu.slaves import load_slave
-
-    slave = load_slave(model_name)
-    declared = getattr(slave, "reference_inputs", None)
-    return None if declared is None else declared(stop_time, step)
+    interface = NATIVE_INTERFACES.get(model_name)
+    return None if interface is None else interface.reference_inputs(stop_time, step)
 
 
 def _experiment(fmu: Path) -> tuple[str, float, float]:
@@ -108,8 +104,8 @@ def _simulate(fmu: Path, inputs: np.ndarray | None, stop_time: float, step: floa
 
 def write_reference(fmu: Path, inputs_of=None) -> list[str]:
     """Simulate the FMU's default experiment and store the result inside the FMU.
-    inputs_of(stop_time, step) gives the inputs (see `input_table`); by default the slave
-    source's `reference_inputs`."""
+    inputs_of(stop_time, step) gives the inputs (see `input_table`); by default the FMU's
+    declaration's (`reference_inputs`)."""
     fmu = Path(fmu)
     name, stop_time, step = _experiment(fmu)
     inputs = (reference_inputs(name, stop_time, step) if inputs_of is None

@@ -25,7 +25,7 @@ class TwoToneDrive:
     Default tones 4000 + 1200 Hz: near, not at, the benchmark's 3759 Hz mode. Against
     2500 + 1200 Hz the Cramer-Rao bound on Omega_z drops 0.029 -> 0.0081 rad/s
     (park-horowitz, noise 1e-4, 40 ms) and the observer's Omega RMS error at noise
-    1e-4 halves (measured; benchmarks/OBSERVER_NOTES.md).
+    1e-4 halves (measured; docs/history/observer-design-log.md).
     """
 
     A1: float = 1.0e-7  #: amplitude of tone 1, N

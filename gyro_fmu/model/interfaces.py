@@ -49,7 +49,8 @@ class Var:
 
     def range_problem(self, value: float) -> str | None:
         """Why `value` is not acceptable for this variable, with the remedy; None if fine.
-        The native FMI layer (fmu_src/fmi/instance.c, range_problem) words it the same."""
+        The native FMI layer (fmu_src/fmi/instance_values.c, inst_range_problem) words
+        it the same."""
         if not math.isfinite(value):
             what = "parameter" if self.is_parameter else self.causality
             return (f"{what} {self.name}={value!r} is not finite: give a finite value "

@@ -20,7 +20,6 @@ what must never happen) or `failed` (an error, named). The runs are Dask tasks
 
 from __future__ import annotations
 
-import csv
 import math
 import time
 from dataclasses import asdict, dataclass, replace
@@ -30,7 +29,7 @@ import numpy as np
 
 from ..errors import GyroFmuError
 from ..model.resonator import EARTH_RATE, ResonatorParameters
-from ..outputs import save_figure, write_table_and_summary
+from ..outputs import csv_writer, save_figure, write_table_and_summary
 from .alarms import CalibrationRefusedError
 from .design import design
 
@@ -232,17 +231,7 @@ def write_lot(res: LotResult, out: Path, figures: bool = True) -> list[Path]:
     """lot.csv (every resonator) and summary.json naming it, lot_histograms.png; each
     whole under its name or not there (gyro_fmu.outputs)."""
     out.mkdir(parents=True, exist_ok=True)
-    columns: list[str] = []
-    for r in res.rows:
-        columns += [c for c in r if c not in columns]
-    def write_csv(path: Path) -> int:
-        with path.open("w", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=columns)
-            w.writeheader()
-            w.writerows({c: r.get(c, "") for c in columns} for r in res.rows)
-        return len(res.rows)
-
-    paths = list(write_table_and_summary(out, "lot.csv", write_csv, res.summary(),
+    paths = list(write_table_and_summary(out, "lot.csv", csv_writer(res.rows), res.summary(),
                                                  ("lot_histograms.png",)))
     if figures and res.rows:
         paths.append(histograms(res, out / "lot_histograms.png"))

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 from collections.abc import Sequence
@@ -13,7 +12,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..estimation.metrics import ESTIMATED
-from ..outputs import atomic_write, save_figure, write_table_and_summary
+from ..outputs import (
+    atomic_write,
+    csv_writer,
+    save_figure,
+    table_columns,
+    write_table_and_summary,
+)
 
 if TYPE_CHECKING:  # annotations only: sweep imports this module
     from .sweep import SweepSpec
@@ -205,19 +210,9 @@ def write_outputs(res: SweepResult, out_dir: Path, figures: bool = True) -> list
     whole under its name or not there."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    columns: list[str] = []
-    for r in res.rows:
-        columns += [c for c in r if c not in columns]
-    def write_csv(path: Path) -> int:
-        with path.open("w", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=columns)
-            w.writeheader()
-            for r in res.rows:
-                w.writerow({c: "" if r.get(c) is None else r.get(c) for c in columns})
-        return len(res.rows)
-
+    columns = table_columns(res.rows)
     (out / "sweep.parquet").unlink(missing_ok=True)  # an old run's, beside the new csv
-    paths = list(write_table_and_summary(out, "sweep.csv", write_csv, res.summary(),
+    paths = list(write_table_and_summary(out, "sweep.csv", csv_writer(res.rows), res.summary(),
                                                  ("sweep_histograms.png",)))
     try:
         import pyarrow as pa
