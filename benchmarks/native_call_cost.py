@@ -24,7 +24,7 @@ from compiled_null import build_compiled_null_fmus
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
-from gyro_fmu.fmu.build import NATIVE_NAMES, build_fmu, prebuilt_fmu
+from gyro_fmu.fmu.build import build_fmu, prebuilt_fmu
 
 
 def _slave(fmu: Path) -> FMU2Slave:
@@ -82,14 +82,15 @@ def main() -> None:
     ap.add_argument("--calls", type=int, default=20000)
     ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args()
+    cases = [("GyroPlant", False), ("GyroPlant", True), ("TwoToneDrive", False),
+             ("RateProfile", False)]
+    names = sorted({name for name, _ in cases})  # each has a pythonfmu flavour
     with tempfile.TemporaryDirectory() as tmp:
         pythonfmu = {n: build_fmu(n, Path(tmp) / "py", reference=False, flavour="pythonfmu")
-                     for n in NATIVE_NAMES}
-        flavours = {"native": {n: prebuilt_fmu(n) for n in NATIVE_NAMES},
+                     for n in names}
+        flavours = {"native": {n: prebuilt_fmu(n) for n in names},
                     "pythonfmu": pythonfmu,
                     "floor": build_compiled_null_fmus(pythonfmu, _folder(Path(tmp) / "null"))}
-        cases = [("GyroPlant", False), ("GyroPlant", True), ("TwoToneDrive", False),
-                 ("RateProfile", False)]
         print(f"doStep through fmpy FMU2Slave, thread CPU us per call, median of {args.repeat}"
               f" x {args.calls} calls")
         print(f"{'FMU':<32}{'native':>10}{'pythonfmu':>12}{'floor':>8}{'native-floor':>14}"
