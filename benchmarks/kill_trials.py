@@ -19,15 +19,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import random
-import shutil
-import signal
 import subprocess
 import sys
-import tempfile
-import time
 from pathlib import Path
+
+from kill_harness import kill_trials, tally
 
 from gyro_fmu.outputs import file_digest
 
@@ -64,32 +61,13 @@ def main() -> None:
                     help="kill between this fraction of the run's duration and 1.1 (the "
                          "writing comes last: 0 spreads the kills over the whole run)")
     args = ap.parse_args()
-    rng = random.Random(args.seed)
-    counts: dict[str, int] = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        cwd = Path(tmp)
-        base = cwd / "base"
-        run = ["run", "--stop-time", args.stop_time, "--noise", "1e-4", "--no-figures"]
-        for _ in range(2):  # the first one also puts the FMUs into models/: not timed
-            start = time.perf_counter()
-            if gyro_fmu(*run, "--seed", "1", "--out", str(base), cwd=cwd).returncode != 0:
-                raise SystemExit("the run failed")
-            duration = time.perf_counter() - start
-        for trial in range(args.trials):
-            folder = cwd / f"trial{trial}"
-            shutil.copytree(base, folder)
-            proc = subprocess.Popen([sys.executable, "-m", "gyro_fmu.cli", *run, "--seed",
-                                     "2", "--out", str(folder)], cwd=cwd,
-                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-            time.sleep(rng.uniform(args.start * duration, 1.1 * duration))
-            os.kill(proc.pid, signal.SIGKILL)
-            proc.wait()
-            verdict = classify(folder, cwd)
-            counts[verdict] = counts.get(verdict, 0) + 1
-            print(f"trial {trial:2d}: {verdict}", flush=True)
+    run = [sys.executable, "-m", "gyro_fmu.cli", "run", "--stop-time", args.stop_time,
+           "--noise", "1e-4", "--no-figures"]
+    counts, duration = kill_trials(lambda seed, out: [*run, "--seed", seed, "--out", str(out)],
+                                   lambda folder, base: classify(folder, base.parent),
+                                   args.trials, random.Random(args.seed), args.start)
     print(f"{args.trials} kills of `gyro-fmu run` (about {duration:.1f} s each): "
-          + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
-
+          + tally(counts))
 
 if __name__ == "__main__":
     main()

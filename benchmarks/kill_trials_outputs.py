@@ -18,15 +18,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import random
-import shutil
-import signal
-import subprocess
 import sys
-import tempfile
-import time
 from pathlib import Path
+
+from kill_harness import kill_trials, tally
 
 from gyro_fmu.outputs import file_digest
 
@@ -66,35 +62,17 @@ def main() -> None:
     ap.add_argument("--trials", type=int, default=20)
     ap.add_argument("--seed", type=int, default=1)
     args = ap.parse_args()
-    rng = random.Random(args.seed)
     cmd = [sys.executable, "-m", "gyro_fmu.cli", *COMMANDS[args.command]]
-    counts: dict[str, int] = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        cwd = Path(tmp)
-        base = cwd / "base"
-        for _ in range(2):  # the first one also puts the FMUs into models/: not timed
-            start = time.perf_counter()
-            done = subprocess.run([*cmd, SEED[args.command], "1", "--out", str(base)],
-                                  cwd=cwd, capture_output=True, text=True)
-            if done.returncode != 0:
-                raise SystemExit(f"the base run failed: {done.stderr[-400:]}")
-            duration = time.perf_counter() - start
-        old = json.dumps(json.loads((base / "summary.json").read_text()), sort_keys=True)
-        for trial in range(args.trials):
-            folder = cwd / f"trial{trial}"
-            shutil.copytree(base, folder)
-            proc = subprocess.Popen([*cmd, SEED[args.command], "2", "--out", str(folder)],
-                                    cwd=cwd, stdout=subprocess.DEVNULL,
-                                    stderr=subprocess.DEVNULL, start_new_session=True)
-            time.sleep(rng.uniform(0.0, 1.1 * duration))
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
-            verdict = classify(folder, old)
-            counts[verdict] = counts.get(verdict, 0) + 1
-            print(f"trial {trial:2d}: {verdict}", flush=True)
-    print(f"{args.trials} kills of `gyro-fmu {args.command}` (about {duration:.1f} s each): "
-          + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
 
+    def old_id(base: Path) -> str:
+        return json.dumps(json.loads((base / "summary.json").read_text()), sort_keys=True)
+
+    counts, duration = kill_trials(
+        lambda seed, out: [*cmd, SEED[args.command], seed, "--out", str(out)],
+        lambda folder, base: classify(folder, old_id(base)), args.trials,
+        random.Random(args.seed))
+    print(f"{args.trials} kills of `gyro-fmu {args.command}` (about {duration:.1f} s each): "
+          + tally(counts))
 
 if __name__ == "__main__":
     main()

@@ -75,7 +75,7 @@ SUITES: dict[str, dict[str, list[str] | None]] = {
     },
 }
 #: Modules the scripts share, not benchmarks themselves.
-HELPERS = ("suites", "compiled_null")
+HELPERS = ("suites", "compiled_null", "kill_harness")
 
 
 def first_line(stem: str) -> str:

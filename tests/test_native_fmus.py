@@ -223,7 +223,7 @@ def test_every_platform_is_in_the_fmu_with_its_sources(version: int) -> None:
                 assert struct.unpack("<I", data[:4])[0] == 0xFEEDFACF
         for source in ("model.c", "fmi2.c", "fmi3.c", "instance.c", "instance_values.c",
                        "instance_states.c", "instance_internal.h", "gyro_structs.h",
-                       "gyro_plant.c", "gyro_rng.c", "variables.h", "model.h"):
+                       "gyro_tables.h", "gyro_plant.c", "gyro_rng.c", "variables.h", "model.h"):
             assert f"sources/{source}" in names
         if version == 3:
             assert "sources/buildDescription.xml" in names

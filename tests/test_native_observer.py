@@ -184,13 +184,17 @@ def test_the_pythonfmu_flavour_equals_the_native_fmu(pythonfmu_models) -> None:
 
 
 def test_the_held_steps_table_is_the_factorials_quotient() -> None:
-    """The held step's written-out table equals j! m! / (j + m + 1)! computed from the
-    factorials in double precision, every entry (Python's float arithmetic is IEEE's)."""
+    """The held step's generated tables (gyro_tables.h, from gyro_fmu/core/structs/tables.py)
+    as compiled into the core: the factorials are the correctly rounded k!, and every weight
+    equals j! m! / (j + m + 1)! computed from them in double precision (Python's float
+    arithmetic is IEEE's)."""
+    import math
+
     from gyro_fmu.core.observer import observer_core
 
     lib = observer_core()
     f = [lib.gyro_observer_factorial(k) for k in range(48)]
-    assert f[:4] == [1.0, 1.0, 2.0, 6.0]
+    assert f == [float(math.factorial(k)) for k in range(48)]
     for j in range(24):
         for m in range(24):
             assert lib.gyro_observer_beta(j, m) == f[j] * f[m] / f[j + m + 1], (j, m)

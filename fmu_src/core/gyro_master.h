@@ -9,35 +9,9 @@
 #include <stddef.h>
 #include <stdint.h>
 
-typedef int (*GyroFmi2GetSetReal)(void *component, const uint32_t *vrs, size_t n,
-                                  double *values);
-typedef int (*GyroFmi2DoStep)(void *component, double t, double h, int no_set_prior_state);
-
-/* What the loop calls and where the values go (the master builds it once per run). */
-typedef struct {
-    int64_t n_get;           /* getReal calls: FMU i writes get_n[i] values at column */
-    GyroFmi2GetSetReal *get_fn;
-    void **get_comp;
-    const uint32_t **get_vrs;
-    const int64_t *get_n, *get_col;
-    int64_t n_set;           /* setReal calls: FMU i takes set_n[i] values from the row, */
-    GyroFmi2GetSetReal *set_fn; /* from column set_col[i] on if they are consecutive, */
-    void **set_comp;         /* else gathered (columns gather[set_first[i]..]) into buf */
-    const uint32_t **set_vrs;
-    const int64_t *set_n, *set_col, *set_first, *gather;
-    double *buf;
-    int64_t n_step;          /* doStep calls, in this order */
-    GyroFmi2DoStep *step_fn;
-    void **step_comp;
-} GyroMasterPlan;
-
-/* Result of a refused call (status above fmi2Warning); phase -1 when none was. */
-typedef struct {
-    int64_t k;      /* communication point of the refusal (or the last one filled) */
-    int64_t phase;  /* 0 getReal, 1 setReal, 2 doStep, -1 none */
-    int64_t index;  /* which call of that phase */
-    int64_t status; /* the fmi2Status it returned */
-} GyroMasterOutcome;
+/* GyroMasterPlan (what the loop calls and where the values go), GyroMasterOutcome (a
+ * refused call) and the function types: generated from gyro_fmu/core/structs/master.py. */
+#include "gyro_structs.h"
 
 /* Fill the rows of points first..last (point k, t_k = start_time + k h, in row k - row0 of
  * data, ncol columns: t_k, then the outputs) and step every FMU from each t_k but the

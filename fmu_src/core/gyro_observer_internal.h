@@ -90,9 +90,9 @@ static const double HELD_STEADY = 8.0;
 /* kxx, kyy and 1/m must stay within this factor of their initial guesses. */
 static const double RATIO = 100.0;
 
-/* float(k!) for k < 48: the Frechet series' weights (gyro_observer_held.c). */
-extern const double gyro_obs_factorial_table[48];
-#define FACTORIAL gyro_obs_factorial_table
+/* float(k!) for k < 48 (GYRO_FACTORIAL, generated: gyro_fmu/core/structs/tables.py). */
+#include "gyro_tables.h"
+#define FACTORIAL GYRO_FACTORIAL
 
 static inline double dmax(double a, double b) { return a >= b ? a : b; }
 static inline double dmin(double a, double b) { return a <= b ? a : b; }

@@ -30,6 +30,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "gyro_linalg.h" /* gyro_expm, gyro_white_noise_covariance */
 #include "gyro_rng.h"
 #include "gyro_structs.h" /* generated: gyro_fmu/core/structs/ */
 
@@ -62,13 +63,6 @@ int gyro_resonator_discretize(const GyroResonatorParams *p, double Omega_z, doub
 int gyro_resonator_force_covariance(const GyroResonatorParams *p, double Omega_z, double h,
                                     double dT, double Q[GYRO_RES_FORCED][GYRO_RES_FORCED],
                                     char *msg, size_t n);
-
-/* Q(h) = integral over [0, h] of e^{As} Qc e^{A's} ds for an n x n A (n <= 6), row-major. */
-void gyro_white_noise_covariance(int n, const double *A, const double *Qc, double h, double *Q);
-
-/* E = e^M for an n x n row-major M (n <= 12): Higham's scaling and squaring with the
- * [13/13] Pade approximant (the method of scipy.linalg.expm for large norms). */
-void gyro_expm(int n, const double *M, double *E);
 
 /* From rest (ring tones at cos = 1) or from initial_state (10 values; NULL for rest);
  * 1 (and msg) when p is unusable. */

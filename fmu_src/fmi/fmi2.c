@@ -242,44 +242,28 @@ FMI2_Export fmi2Status fmi2CancelStep(fmi2Component c) {
                 : fmi2Error;
 }
 
-FMI2_Export fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s,
-                                    fmi2Status *value) {
-    Instance *inst = inst_check(c, "fmi2GetStatus", ANY_LIVE);
-    if (!inst || !value) return fmi2Error;
-    if (s != fmi2DoStepStatus) return (fmi2Status)inst_unsupported(inst, "fmi2GetStatus");
-    *value = inst->mode == MODE_ERROR ? fmi2Error : fmi2OK;
-    return fmi2OK;
-}
+/* fmi2Get<Name>Status: the one status kind each answers (known: answer); others refused. */
+#define GET_STATUS(Name, Type, known, answer)                                               \
+    FMI2_Export fmi2Status fmi2Get##Name##Status(fmi2Component c, const fmi2StatusKind s,    \
+                                                 Type *value) {                             \
+        Instance *inst = inst_check(c, "fmi2Get" #Name "Status", ANY_LIVE);                 \
+        if (!inst || !value) return fmi2Error;                                              \
+        if (s != (known)) return (fmi2Status)inst_unsupported(inst, "fmi2Get" #Name "Status"); \
+        *value = (answer);                                                                  \
+        return fmi2OK;                                                                      \
+    }
 
-FMI2_Export fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s,
-                                        fmi2Real *value) {
-    Instance *inst = inst_check(c, "fmi2GetRealStatus", ANY_LIVE);
-    if (!inst || !value) return fmi2Error;
-    if (s != fmi2LastSuccessfulTime) return (fmi2Status)inst_unsupported(inst,
-                                                                         "fmi2GetRealStatus");
-    *value = inst->time;
-    return fmi2OK;
-}
+/* fmi2Get<Name>Status of a type no status kind of this FMU has. */
+#define NO_STATUS(Name, Type)                                                               \
+    FMI2_Export fmi2Status fmi2Get##Name##Status(fmi2Component c, const fmi2StatusKind s,    \
+                                                 Type *value) {                             \
+        (void)s, (void)value;                                                               \
+        Instance *inst = inst_check(c, "fmi2Get" #Name "Status", ANY_LIVE);                 \
+        return inst ? (fmi2Status)inst_unsupported(inst, "fmi2Get" #Name "Status") : fmi2Error; \
+    }
 
-FMI2_Export fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s,
-                                           fmi2Integer *value) {
-    (void)s, (void)value;
-    Instance *inst = inst_check(c, "fmi2GetIntegerStatus", ANY_LIVE);
-    return inst ? (fmi2Status)inst_unsupported(inst, "fmi2GetIntegerStatus") : fmi2Error;
-}
-
-FMI2_Export fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s,
-                                           fmi2Boolean *value) {
-    Instance *inst = inst_check(c, "fmi2GetBooleanStatus", ANY_LIVE);
-    if (!inst || !value) return fmi2Error;
-    if (s != fmi2Terminated) return (fmi2Status)inst_unsupported(inst, "fmi2GetBooleanStatus");
-    *value = inst->mode == MODE_ERROR ? fmi2True : fmi2False;
-    return fmi2OK;
-}
-
-FMI2_Export fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s,
-                                          fmi2String *value) {
-    (void)s, (void)value;
-    Instance *inst = inst_check(c, "fmi2GetStringStatus", ANY_LIVE);
-    return inst ? (fmi2Status)inst_unsupported(inst, "fmi2GetStringStatus") : fmi2Error;
-}
+GET_STATUS(, fmi2Status, fmi2DoStepStatus, inst->mode == MODE_ERROR ? fmi2Error : fmi2OK)
+GET_STATUS(Real, fmi2Real, fmi2LastSuccessfulTime, inst->time)
+GET_STATUS(Boolean, fmi2Boolean, fmi2Terminated, inst->mode == MODE_ERROR ? fmi2True : fmi2False)
+NO_STATUS(Integer, fmi2Integer)
+NO_STATUS(String, fmi2String)

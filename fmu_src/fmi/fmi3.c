@@ -112,33 +112,26 @@ FMI3_Export fmi3Status fmi3Reset(fmi3Instance instance) {
     return (fmi3Status)inst_reset(inst);
 }
 
-FMI3_Export fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference vr[],
-                                     size_t nvr, fmi3Float64 values[], size_t nValues) {
-    CHECK("fmi3GetFloat64", GETTABLE);
-    if (nValues != nvr) return (fmi3Status)inst_unsupported(inst, "arrays (nValues != nvr)");
-    return (fmi3Status)inst_get_float64(inst, vr, nvr, values);
-}
+/* fmi3Get<T>/fmi3Set<T> for the types this FMU has variables of (t: the layer's inst_get_t,
+ * inst_set_t; scalars only). */
+#define SCALAR_ACCESS(T, t)                                                                 \
+    FMI3_Export fmi3Status fmi3Get##T(fmi3Instance instance, const fmi3ValueReference vr[], \
+                                      size_t nvr, fmi3##T values[], size_t nValues) {       \
+        CHECK("fmi3Get" #T, GETTABLE);                                                      \
+        if (nValues != nvr)                                                                 \
+            return (fmi3Status)inst_unsupported(inst, "arrays (nValues != nvr)");           \
+        return (fmi3Status)inst_get_##t(inst, vr, nvr, values);                             \
+    }                                                                                       \
+    FMI3_Export fmi3Status fmi3Set##T(fmi3Instance instance, const fmi3ValueReference vr[], \
+                                      size_t nvr, const fmi3##T values[], size_t nValues) { \
+        CHECK("fmi3Set" #T, SETTABLE);                                                      \
+        if (nValues != nvr)                                                                 \
+            return (fmi3Status)inst_unsupported(inst, "arrays (nValues != nvr)");           \
+        return (fmi3Status)inst_set_##t(inst, vr, nvr, values);                             \
+    }
 
-FMI3_Export fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[],
-                                     size_t nvr, const fmi3Float64 values[], size_t nValues) {
-    CHECK("fmi3SetFloat64", SETTABLE);
-    if (nValues != nvr) return (fmi3Status)inst_unsupported(inst, "arrays (nValues != nvr)");
-    return (fmi3Status)inst_set_float64(inst, vr, nvr, values);
-}
-
-FMI3_Export fmi3Status fmi3GetInt32(fmi3Instance instance, const fmi3ValueReference vr[],
-                                   size_t nvr, fmi3Int32 values[], size_t nValues) {
-    CHECK("fmi3GetInt32", GETTABLE);
-    if (nValues != nvr) return (fmi3Status)inst_unsupported(inst, "arrays (nValues != nvr)");
-    return (fmi3Status)inst_get_int32(inst, vr, nvr, values);
-}
-
-FMI3_Export fmi3Status fmi3SetInt32(fmi3Instance instance, const fmi3ValueReference vr[],
-                                   size_t nvr, const fmi3Int32 values[], size_t nValues) {
-    CHECK("fmi3SetInt32", SETTABLE);
-    if (nValues != nvr) return (fmi3Status)inst_unsupported(inst, "arrays (nValues != nvr)");
-    return (fmi3Status)inst_set_int32(inst, vr, nvr, values);
-}
+SCALAR_ACCESS(Float64, float64)
+SCALAR_ACCESS(Int32, int32)
 
 /* Types this FMU has no variables of: an empty call is fine, any value reference is not. */
 #define NO_VARIABLES(T, Get, Set)                                                           \

@@ -9,6 +9,8 @@
 #define GYRO_MODEL_H
 
 #include <stddef.h>
+#include <stdio.h>
+#include <string.h>
 #include <stdint.h>
 
 typedef enum { GYRO_FLOAT64, GYRO_INT32 } GyroVarType;
@@ -54,6 +56,25 @@ typedef struct {
      * the variables it holds and drop anything cached; NULL when nothing to check. */
     GyroHookStatus (*restored)(void *data, char *msg, size_t n);
 } GyroModel;
+
+/* A restored state's check for a model whose state is its parameters' struct: the struct
+ * built from the variables (want) equals the saved one (have) byte for byte, and the
+ * saved outputs are finite (outputs_finite); else an error naming what. */
+static inline GyroHookStatus gyro_restored_matches(const void *want, const void *have,
+                                                   size_t size, int outputs_finite,
+                                                   const char *what, char *msg, size_t n) {
+    if (memcmp(want, have, size) == 0 && outputs_finite) return GYRO_HOOK_OK;
+    snprintf(msg, n, "the saved %s does not match its parameters, or is not finite", what);
+    return GYRO_HOOK_ERROR;
+}
+
+/* 1 the first time the step size h is seen after another (*last: the last one seen):
+ * checks that hold per step size (aliasing) run once, not every step. */
+static inline int gyro_new_step_size(double *last, double h) {
+    const int changed = h != *last;
+    *last = h;
+    return changed;
+}
 
 /* Defined once per FMU, in its model.c. */
 extern const GyroModel GYRO_MODEL;

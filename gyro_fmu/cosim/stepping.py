@@ -14,10 +14,11 @@ from __future__ import annotations
 
 import ctypes
 import functools
-from ctypes import POINTER, Structure, c_double, c_int64, c_void_p
+from ctypes import POINTER, c_double, c_int64, c_void_p
 
 import numpy as np
 
+from ..core import structs
 from ..core.library import core
 
 #: Phase codes returned with a refused call.
@@ -25,18 +26,9 @@ GET, SET, STEP = 0, 1, 2
 _I64 = POINTER(c_int64)
 
 
-class MasterPlan(Structure):
-    _fields_ = [("n_get", c_int64), ("get_fn", POINTER(c_void_p)), ("get_comp", POINTER(c_void_p)),
-                ("get_vrs", POINTER(c_void_p)), ("get_n", _I64), ("get_col", _I64),
-                ("n_set", c_int64), ("set_fn", POINTER(c_void_p)), ("set_comp", POINTER(c_void_p)),
-                ("set_vrs", POINTER(c_void_p)), ("set_n", _I64), ("set_col", _I64),
-                ("set_first", _I64), ("gather", _I64), ("buf", POINTER(c_double)),
-                ("n_step", c_int64), ("step_fn", POINTER(c_void_p)),
-                ("step_comp", POINTER(c_void_p))]
-
-
-class MasterOutcome(Structure):
-    _fields_ = [(n, c_int64) for n in ("k", "phase", "index", "status")]
+#: The C structs (declared once: gyro_fmu/core/structs/master.py).
+MasterPlan = structs.master.PLAN.ctypes()
+MasterOutcome = structs.master.OUTCOME.ctypes()
 
 
 @functools.cache

@@ -68,8 +68,8 @@ FMI_HEADERS = ("model.h", "instance.h", "instance_internal.h")
 STANDARD_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h",
                     "fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")
 CORE_SOURCES = ("gyro_text.c", "gyro_rng.c", "gyro_plant.c", "gyro_signals.c",
-                *OBSERVER_SOURCES, "gyro_master.c", "gyro_resonator.c", "gyro_loops.c",
-                "gyro_carrier.c", "gyro_demod.c", "gyro_chain.c")
+                *OBSERVER_SOURCES, "gyro_master.c", "gyro_linalg.c", "gyro_resonator.c",
+                "gyro_loops.c", "gyro_carrier.c", "gyro_demod.c", "gyro_chain.c")
 #: Core sources every model's binary needs (the FMI layer's messages).
 COMMON_CORE = ("gyro_text.c",)
 GENERATION_TOOL = "gyro_fmu (native C, zig cc)"
@@ -318,10 +318,11 @@ def compile_library(target: Target, sources: list[Path], include: list[Path], ou
 
 
 def generated_headers(gen: Path, interface: FmuInterface | None = None) -> Path:
-    """Write the generated headers into gen: gyro_structs.h (the core's structs, from
+    """Write the generated headers into gen: the core's (gyro_structs.h, gyro_tables.h:
     gyro_fmu.core.structs) and, for a model, its variables.h. Returns gen."""
     gen.mkdir(parents=True, exist_ok=True)
-    (gen / "gyro_structs.h").write_text(structs.header())
+    for name, make in structs.GENERATED.items():
+        (gen / name).write_text(make())
     if interface is not None:
         (gen / "variables.h").write_text(variables_header(interface))
     return gen
@@ -373,7 +374,8 @@ def fmu_members(interface: FmuInterface, fmi_version: int,
     for path in model_sources(interface):
         members[f"sources/{path.name}"] = path.read_bytes()
     members["sources/variables.h"] = variables_header(interface).encode()
-    members["sources/gyro_structs.h"] = structs.header().encode()
+    for name, make in structs.GENERATED.items():
+        members[f"sources/{name}"] = make().encode()
     if fmi_version == 3:
         members["sources/buildDescription.xml"] = build_description(interface)
     return members

@@ -99,7 +99,7 @@ RESONATOR = FmuInterface(
     # 0.6 V on x at 1 rad/s: the pick-offs move
     doctor_check=({"Vx": 0.6, "Vy": 0.0, "Omega_z": 1.0}, ("Vpx", "Vpy")),
     reference_inputs=_resonator_reference_inputs,
-    core_sources=("gyro_rng.c", "gyro_resonator.c"),
+    core_sources=("gyro_rng.c", "gyro_linalg.c", "gyro_resonator.c"),
     struct_copies=(StructCopy("params_of", RESONATOR_PARAMS),),
     default_experiment=SELFCAL_EXPERIMENT,
 )

@@ -30,6 +30,8 @@ from ..errors import GyroFmuError
 from .python_env import REQUIRED_MODULES, find_libpython, python_home, required_paths
 
 LOADER_SOURCE = Path(__file__).resolve().parent / "python_loader.c"
+#: The loader's C files: the FMI functions (LOADER_SOURCE), its environment, their header.
+LOADER_SOURCES = (LOADER_SOURCE, LOADER_SOURCE.with_name("python_loader_env.c"))
 ENV_FILE = "resources/python_env.txt"
 MARKER = b"@(#)pythonfmu-shim"
 
@@ -63,12 +65,12 @@ def fmi2_header_dir() -> Path | None:
 
 def loader_binary() -> bytes:
     """The compiled loader, compiled once per process and version of its source."""
-    stat = LOADER_SOURCE.stat()
-    return _loader_binary(stat.st_mtime_ns, stat.st_size)
+    files = (*LOADER_SOURCES, LOADER_SOURCE.with_name("python_loader.h"))
+    return _loader_binary(tuple((p.stat().st_mtime_ns, p.stat().st_size) for p in files))
 
 
 @functools.lru_cache(maxsize=1)
-def _loader_binary(mtime_ns: int, size: int) -> bytes:
+def _loader_binary(stats: tuple) -> bytes:
     with tempfile.TemporaryDirectory() as tmp:
         return compile_loader(Path(tmp)).read_bytes()
 
@@ -84,7 +86,7 @@ def compile_loader(dest_dir: Path) -> Path:
     out = Path(dest_dir) / "python_loader.so"
     base = [cc, "-std=c99", "-shared", "-fPIC", "-O2", "-fvisibility=hidden",
             "-U_FORTIFY_SOURCE", "-fno-stack-protector", f"-I{headers}",
-            "-o", str(out), str(LOADER_SOURCE)]
+            "-o", str(out), *map(str, LOADER_SOURCES)]
     errors = ""
     # libdl.so.2 as NEEDED so that dlopen resolves on glibc < 2.34 too
     for libs in (["-Wl,--no-as-needed", "-l:libdl.so.2"], ["-ldl"]):
@@ -92,7 +94,8 @@ def compile_loader(dest_dir: Path) -> Path:
         if proc.returncode == 0:
             return out
         errors = proc.stderr
-    raise LoaderUnavailableError(f"compiling {LOADER_SOURCE.name} failed:\n{errors}")
+    raise LoaderUnavailableError(f"compiling {', '.join(p.name for p in LOADER_SOURCES)} "
+                                 f"failed:\n{errors}")
 
 
 def python_env_text() -> str:

@@ -2,8 +2,6 @@
  * (core/gyro_signals.h: constant, step, ramp or sine). */
 #include <math.h>
 #include <stddef.h>
-#include <stdio.h>
-#include <string.h>
 
 #include "gyro_signals.h"
 #include "model.h"
@@ -25,27 +23,18 @@ static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) 
 }
 
 static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) {
-    ModelData *d = data;
-    if (h != d->checked_step) { /* a step that aliases: warned once per step size */
-        d->checked_step = h;
-        if (gyro_rate_nyquist_problem(&d->rate, h, msg, n)) {
-            d->v.Omega_z = gyro_rate_Omega_z(&d->rate, t + h);
-            return GYRO_HOOK_WARNING;
-        }
-    }
+    ModelData *d = data; /* a step that aliases: warned once per step size */
+    const int aliases = gyro_new_step_size(&d->checked_step, h)
+                        && gyro_rate_nyquist_problem(&d->rate, h, msg, n);
     d->v.Omega_z = gyro_rate_Omega_z(&d->rate, t + h);
-    return GYRO_HOOK_OK;
+    return aliases ? GYRO_HOOK_WARNING : GYRO_HOOK_OK;
 }
 
 static GyroHookStatus restored(void *data, char *msg, size_t n) {
     ModelData *d = data;
-    const Variables *v = &d->v;
-    const GyroRateProfile want = rate_of(v);
-    if (memcmp(&want, &d->rate, sizeof want) != 0 || !isfinite(d->v.Omega_z)) {
-        snprintf(msg, n, "the saved rate profile does not match its parameters");
-        return GYRO_HOOK_ERROR;
-    }
-    return GYRO_HOOK_OK;
+    const GyroRateProfile want = rate_of(&d->v);
+    return gyro_restored_matches(&want, &d->rate, sizeof want, isfinite(d->v.Omega_z),
+                                 "rate profile", msg, n);
 }
 
 typedef char variables_first[offsetof(ModelData, v) == 0 ? 1 : -1];

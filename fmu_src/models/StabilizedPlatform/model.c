@@ -55,12 +55,9 @@ static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) 
 static GyroHookStatus restored(void *data, char *msg, size_t n) {
     ModelData *d = data;
     const GyroPlatformParams want = params_of(&d->v);
-    if (memcmp(&want, &d->p, sizeof want) != 0 || !isfinite(d->s.w) || !isfinite(d->s.theta)
-        || !isfinite(d->s.I) || !isfinite(d->s.tau)) {
-        snprintf(msg, n, "the saved platform does not match its parameters, or is not finite");
-        return GYRO_HOOK_ERROR;
-    }
-    return GYRO_HOOK_OK;
+    const int finite = isfinite(d->s.w) && isfinite(d->s.theta) && isfinite(d->s.I)
+                       && isfinite(d->s.tau);
+    return gyro_restored_matches(&want, &d->p, sizeof want, finite, "platform", msg, n);
 }
 
 typedef char variables_first[offsetof(ModelData, v) == 0 ? 1 : -1];

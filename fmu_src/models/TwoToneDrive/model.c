@@ -2,8 +2,6 @@
  * eq. 10, core/gyro_signals.h). The outputs at the end of each step are those of t + h. */
 #include <math.h>
 #include <stddef.h>
-#include <stdio.h>
-#include <string.h>
 
 #include "gyro_signals.h"
 #include "model.h"
@@ -25,26 +23,18 @@ static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) 
 }
 
 static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) {
-    ModelData *d = data;
-    if (h != d->checked_step) { /* a step that aliases: warned once per step size */
-        d->checked_step = h;
-        if (gyro_drive_nyquist_problem(&d->drive, h, msg, n)) {
-            d->v.ux = gyro_drive_ux(&d->drive, t + h);
-            return GYRO_HOOK_WARNING;
-        }
-    }
+    ModelData *d = data; /* a step that aliases: warned once per step size */
+    const int aliases = gyro_new_step_size(&d->checked_step, h)
+                        && gyro_drive_nyquist_problem(&d->drive, h, msg, n);
     d->v.ux = gyro_drive_ux(&d->drive, t + h);
-    return GYRO_HOOK_OK;
+    return aliases ? GYRO_HOOK_WARNING : GYRO_HOOK_OK;
 }
 
 static GyroHookStatus restored(void *data, char *msg, size_t n) {
     ModelData *d = data;
     const GyroTwoToneDrive want = drive_of(&d->v);
-    if (memcmp(&want, &d->drive, sizeof want) != 0 || !isfinite(d->v.ux)) {
-        snprintf(msg, n, "the saved drive does not match its parameters A1, f1, A2, f2");
-        return GYRO_HOOK_ERROR;
-    }
-    return GYRO_HOOK_OK;
+    return gyro_restored_matches(&want, &d->drive, sizeof want, isfinite(d->v.ux),
+                                 "drive (A1, f1, A2, f2)", msg, n);
 }
 
 typedef char variables_first[offsetof(ModelData, v) == 0 ? 1 : -1];

@@ -7,16 +7,23 @@ from __future__ import annotations
 
 import ctypes
 import dataclasses
+import functools
 import inspect
 import math
-from dataclasses import dataclass, field
+import textwrap
+from dataclasses import dataclass
 from typing import Any
 
 #: C type -> ctypes type (pointers as c_void_p-sized POINTERs of their target).
 _SCALARS = {"double": ctypes.c_double, "int32_t": ctypes.c_int32, "int64_t": ctypes.c_int64,
             "uint64_t": ctypes.c_uint64, "char": ctypes.c_char}
+_VOIDS = ctypes.POINTER(ctypes.c_void_p)
 _POINTERS = {"double *": ctypes.POINTER(ctypes.c_double),
-             "const double *": ctypes.POINTER(ctypes.c_double)}
+             "const double *": ctypes.POINTER(ctypes.c_double),
+             "const int64_t *": ctypes.POINTER(ctypes.c_int64),
+             # arrays of addresses: the master's components, value references, functions
+             "void **": _VOIDS, "const uint32_t **": _VOIDS, "GyroFmi2GetSetReal *": _VOIDS,
+             "GyroFmi2DoStep *": _VOIDS}
 
 
 @dataclass(frozen=True)
@@ -81,9 +88,15 @@ class Field:
         space = "" if ctype.endswith("*") else " "
         return f"{ctype}{space}{self.name}{dims};"
 
-    def c_comment(self) -> str:
+    def c_member(self) -> str:
+        """The member's line in its typedef, with unit and meaning as a comment wrapped at
+        92 columns."""
         parts = [p for p in (self.unit, self.doc) if p]
-        return f" /* {', '.join(parts)} */" if parts else ""
+        if not parts:
+            return f"    {self.c_decl()}"
+        return textwrap.fill(", ".join(parts) + " */", 92,
+                             initial_indent=f"    {self.c_decl()} /* ",
+                             subsequent_indent="     * ")
 
     def ctypes_type(self):
         if isinstance(self.ctype, Struct):
@@ -105,13 +118,6 @@ class Struct:
     #: also give C the fields' names, labels, units and nominals: #define <info>
     #: {{"kxx", "x-axis stiffness", "1/s2", 1e8}, ...} (GyroFieldInfo rows), for messages
     info: str = ""
-    _mirror: list = field(default_factory=list, compare=False, repr=False)
-
-    def __getitem__(self, name: str) -> Field:
-        for f in self.fields:
-            if f.name == name:
-                return f
-        raise KeyError(f"{self.name} has no field {name!r}")
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -124,15 +130,18 @@ class Struct:
 
     def ctypes(self) -> type[ctypes.Structure]:
         """The ctypes mirror (one class per Struct, made on first use)."""
-        if not self._mirror:
-            self._mirror.append(type(self.name, (ctypes.Structure,), {
-                "_fields_": [(f.name, f.ctypes_type()) for f in self.fields],
-                "__doc__": f"{self.name} of the C core (generated: gyro_fmu.core.structs)."}))
-        return self._mirror[0]
+        return self._ctypes_class
+
+    @functools.cached_property
+    def _ctypes_class(self) -> type[ctypes.Structure]:
+        return type(self.name, (ctypes.Structure,), {
+            "_fields_": [(f.name, f.ctypes_type()) for f in self.fields],
+            "__doc__": f"{self.name} of the C core (generated: gyro_fmu.core.structs)."})
 
     def c_typedef(self) -> list[str]:
-        lines = ["/* " + _wrap(self.doc, 86, " * ") + " */", "typedef struct {"]
-        lines += [f"    {f.c_decl()}{f.c_comment()}" for f in self.fields]
+        doc = textwrap.fill(self.doc, 86, initial_indent="/* ", subsequent_indent=" * ")
+        lines = [doc + " */", "typedef struct {"]
+        lines += [f.c_member() for f in self.fields]
         lines.append(f"}} {self.name};")
         if self.info:
             rows = [f'{{"{f.name}", "{f.label or f.doc}", "{f.unit or "1"}", '
@@ -141,18 +150,6 @@ class Struct:
             lines += [f"/* {self.name}'s fields: name, label, unit, nominal (GyroFieldInfo). */",
                       f"#define {self.info} {{ \\", *(f"    {r}, \\" for r in rows), "}"]
         return lines
-
-
-def _wrap(text: str, width: int, indent: str) -> str:
-    out, line = [], ""
-    for word in text.split():
-        if line and len(line) + 1 + len(word) > width:
-            out.append(line)
-            line = word
-        else:
-            line = f"{line} {word}" if line else word
-    out.append(line)
-    return f"\n{indent}".join(out)
 
 
 def declared(struct: Struct):
