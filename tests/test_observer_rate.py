@@ -173,20 +173,31 @@ def _core_filters(xs, Ps, mu, Pi):
     return obs
 
 
-def test_mixture_and_mixing_equal_their_definitions():
+@pytest.mark.parametrize("switching", ["general", "uniform", "uniform, one model likely"])
+def test_mixture_and_mixing_equal_their_definitions(switching: str):
     """The core's combine: mean and covariance of a Gaussian mixture (with the spread of
     the means); mix: each filter restarted from the mixture weighted by mu_i Pi[i, j] /
-    c_j; identical filters mix to themselves."""
+    c_j, by the general sum for any Pi and by the one-mixture form for the uniform
+    switching the observer builds (gyro_observer_imm.c); identical filters mix to
+    themselves."""
     rng = np.random.default_rng(0)
     M, n = 7, 14
     xs = rng.standard_normal((M, n))
     A = rng.standard_normal((M, n, n))
     Ps = np.einsum("mij,mkj->mik", A, A)
     w = rng.dirichlet(np.ones(M))
-    Pi = rng.dirichlet(np.ones(M), size=M)  # rows sum to 1
-    Pi[0, 3] = 0.0  # a switch that cannot happen
-    Pi[0] /= Pi[0].sum()
     mu = rng.dirichlet(np.ones(M))
+    if switching == "general":
+        Pi = rng.dirichlet(np.ones(M), size=M)  # rows sum to 1
+        Pi[0, 3] = 0.0  # a switch that cannot happen
+        Pi[0] /= Pi[0].sum()
+    else:  # as obs_set_rates builds it: 1 - sw on the diagonal, sw / (M - 1) off it
+        sw = 0.3 if switching == "uniform" else 1e-4
+        Pi = np.full((M, M), sw / (M - 1))
+        np.fill_diagonal(Pi, 1.0 - sw)
+        if switching != "uniform":
+            mu = np.full(M, 1e-12)
+            mu[2] = 1.0 - mu.sum() + 1e-12
     obs = _core_filters(xs, Ps, mu, Pi)
     x, P = np.empty(n), np.zeros((14, 14))
     obs._lib.gyro_observer_combine(obs._ref, w.ctypes.data_as(_DP), x.ctypes.data_as(_DP),

@@ -85,3 +85,17 @@ def test_every_copy_names_existing_variables() -> None:
         structs.copy_function("guess_of", structs.plant.PARAMS,
                               {f"{n}_0" for n in "kxx kyy kxy dxx dyy dxy".split()},
                               {"*": "{}_0"})
+
+
+def test_every_declaration_module_is_in_the_prebuilt_stamp() -> None:
+    """The headers are generated from every module of gyro_fmu/core/structs: each is among
+    the files the prebuilt FMUs' staleness stamp hashes, so an edit to one (a table, a
+    field) marks the FMUs stale instead of leaving binaries of the old declaration."""
+    from pathlib import Path
+
+    from gyro_fmu.fmu.sources import DECLARATION_FILES
+
+    folder = Path(structs.__file__).parent
+    modules = {f"core/structs/{p.name}" for p in folder.glob("*.py")}
+    assert len(modules) >= 7
+    assert modules <= set(DECLARATION_FILES), modules - set(DECLARATION_FILES)

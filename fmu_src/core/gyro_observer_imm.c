@@ -38,25 +38,70 @@ static void combine(const GyroObserver *o, const double xs[][NMAX],
     }
 }
 
-void gyro_observer_mix(GyroObserver *o) {
+/* 1 when Pi is the uniform switching matrix obs_set_rates builds (stay = Pi[j][j] on the
+ * diagonal, leave = Pi[i][j] off it, for every i, j). */
+static int uniform_switching(const GyroObserver *o, double *stay, double *leave) {
     const int M = o->n_models;
+    *stay = o->Pi[0][0], *leave = o->Pi[1][0];
+    for (int i = 0; i < M; i++)
+        for (int j = 0; j < M; j++)
+            if (o->Pi[i][j] != (i == j ? *stay : *leave)) return 0;
+    return 1;
+}
+
+/* Mixing (eqs. 11.6.6-6 to -11): model j starts from the mixture of the filters with
+ * weights Pi[i][j] mu_i / c_j, c_j = sum_i Pi[i][j] mu_i (the predicted probabilities).
+ * For the uniform switching of obs_set_rates (stay on the diagonal, leave off it) the
+ * weights are leave mu_i / c_j plus (stay - leave) mu_j / c_j on j's own filter, so with
+ * xbar, T the mu-mixture of all the filters (one mixture, not M) and e_j = x_j - xbar:
+ *     x0j = a_j x_j + (1 - a_j) xbar,    a_j = (stay - leave) mu_j / c_j,
+ *     P0j = a_j P_j + (1 - a_j) T + a_j (1 - a_j) e_j e_j'
+ * (the same mixture in exact arithmetic: sum_i w_i (P_i + d_i d_i') with d_i = e_i -
+ * a_j e_j; every term positive semi-definite, as before). Another Pi (a restored state's)
+ * takes the general sum. */
+void gyro_observer_mix(GyroObserver *o) {
+    const int M = o->n_models, n = o->n;
     if (M == 1) {
         o->c[0] = 1.0;
         return;
     }
-    double x0[GYRO_OBS_MMAX][NMAX], P0[GYRO_OBS_MMAX][NMAX][NMAX], wj[GYRO_OBS_MMAX];
-    for (int j = 0; j < M; j++) {
-        double acc = 0.0;
-        for (int i = 0; i < M; i++) acc += o->Pi[i][j] * o->mu[i];
-        o->c[j] = acc;
-        for (int i = 0; i < M; i++) wj[i] = o->Pi[i][j] * o->mu[i] / acc;
-        combine(o, (const double(*)[NMAX])o->xs, (const double(*)[NMAX][NMAX])o->Ps, wj, x0[j],
-                P0[j]);
+    double stay, leave;
+    if (!uniform_switching(o, &stay, &leave)) {
+        double x0[GYRO_OBS_MMAX][NMAX], P0[GYRO_OBS_MMAX][NMAX][NMAX], wj[GYRO_OBS_MMAX];
+        for (int j = 0; j < M; j++) {
+            double acc = 0.0;
+            for (int i = 0; i < M; i++) acc += o->Pi[i][j] * o->mu[i];
+            o->c[j] = acc;
+            for (int i = 0; i < M; i++) wj[i] = o->Pi[i][j] * o->mu[i] / acc;
+            combine(o, (const double(*)[NMAX])o->xs, (const double(*)[NMAX][NMAX])o->Ps, wj,
+                    x0[j], P0[j]);
+        }
+        for (int j = 0; j < M; j++) {
+            memcpy(o->xs[j], x0[j], n * sizeof(double));
+            for (int a = 0; a < n; a++) memcpy(o->Ps[j][a], P0[j][a], n * sizeof(double));
+        }
+        return;
     }
-    const int n = o->n;
+    double total = 0.0, w[GYRO_OBS_MMAX], xbar[NMAX], T[NMAX][NMAX];
+    for (int i = 0; i < M; i++) total += o->mu[i];
+    for (int i = 0; i < M; i++) w[i] = o->mu[i] / total;
+    combine(o, (const double(*)[NMAX])o->xs, (const double(*)[NMAX][NMAX])o->Ps, w, xbar, T);
     for (int j = 0; j < M; j++) {
-        memcpy(o->xs[j], x0[j], n * sizeof(double));
-        for (int a = 0; a < n; a++) memcpy(o->Ps[j][a], P0[j][a], n * sizeof(double));
+        const double own = (stay - leave) * o->mu[j];
+        o->c[j] = own + leave * total;
+        const double aj = own / o->c[j], bj = 1.0 - aj, ab = aj * bj;
+        double e[NMAX] = {0.0};
+        for (int a = 0; a < n; a++) e[a] = o->xs[j][a] - xbar[a];
+        double (*P)[NMAX] = o->Ps[j];
+        for (int a = 0; a < n; a++) { /* the lower triangle, mirrored: symmetric bits */
+            const double ea = ab * e[a];
+            for (int b = 0; b <= a; b++) {
+                const double v = aj * P[a][b] + bj * T[a][b] + ea * e[b];
+                P[a][b] = v;
+                P[b][a] = v;
+            }
+            o->xs[j][a] = aj * o->xs[j][a] + bj * xbar[a];
+        }
     }
 }
 

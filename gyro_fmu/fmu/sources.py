@@ -24,6 +24,7 @@ def sources_root() -> Path:
 #: The modules the declarations come from (the prebuilt FMUs' staleness stamp hashes them).
 DECLARATION_FILES = ("core/structs/__init__.py", "core/structs/base.py", "core/structs/plant.py",
                      "core/structs/observer.py", "core/structs/selfcal.py",
+                     "core/structs/master.py", "core/structs/tables.py",
                      "model/interfaces.py", "fmu/interfaces.py", "model/selfcal_interfaces.py",
                      "model/resonator.py",
                      "model/loops.py", "estimation/interface.py",

@@ -152,10 +152,47 @@ def combine(xs, Ps, w, x, P):  # pragma: no cover
 def mix(xs, Ps, mu, Pi, c):  # pragma: no cover
     """IMM interaction (Bar-Shalom eqs. 11.6.6-6 to -10), in place: c = Pi' mu (predicted
     model probabilities) and each filter j restarted from the mixture of all filters with
-    weights mu_i Pi[i, j] / c_j."""
+    weights mu_i Pi[i, j] / c_j. For a uniform switching matrix (stay on the diagonal,
+    leave off it: the observer's) in the one-mixture form of 0.4.0, with xbar, T the
+    mu-mixture and a_j = (stay - leave) mu_j / c_j:
+    x0j = a_j x_j + (1 - a_j) xbar, P0j = a_j P_j + (1 - a_j) T + a_j (1 - a_j) e_j e_j'
+    (e_j = x_j - xbar), the same operations in the same order as the C core."""
     M, n = xs.shape
     if M == 1:
         c[0] = 1.0
+        return
+    stay, leave = Pi[0, 0], Pi[1, 0]
+    uniform = True
+    for i in range(M):
+        for j in range(M):
+            if Pi[i, j] != (stay if i == j else leave):
+                uniform = False
+    if uniform:
+        total = 0.0
+        for i in range(M):
+            total += mu[i]
+        w = np.empty(M)
+        for i in range(M):
+            w[i] = mu[i] / total
+        xbar = np.empty(n)
+        T = np.empty((n, n))
+        combine(xs, Ps, w, xbar, T)
+        e = np.empty(n)
+        for j in range(M):
+            own = (stay - leave) * mu[j]
+            c[j] = own + leave * total
+            aj = own / c[j]
+            bj = 1.0 - aj
+            ab = aj * bj
+            for a in range(n):
+                e[a] = xs[j, a] - xbar[a]
+            for a in range(n):
+                ea = ab * e[a]
+                for b in range(a + 1):
+                    v = aj * Ps[j, a, b] + bj * T[a, b] + ea * e[b]
+                    Ps[j, a, b] = v
+                    Ps[j, b, a] = v
+                xs[j, a] = aj * xs[j, a] + bj * xbar[a]
         return
     x0 = np.empty((M, n))
     P0 = np.empty((M, n, n))
