@@ -302,7 +302,7 @@ int gyro_observer_step(GyroObserver *o, double ux, double uy, double z1, double 
             }
         }
     }
-    obs_imm_update(o, z1, z2, h);
+    obs_imm_update(o, z1, z2, h, 0);
     if (pv > 0.0) {
         o->peak[0] = dmax(o->peak[0], pk0);
         o->peak[1] = dmax(o->peak[1], pk1);
@@ -321,7 +321,7 @@ int gyro_observer_update(GyroObserver *o, double z1, double z2, double h, char *
     const int refused = refusal(o, h, names, values, 2, 0, msg, n);
     if (refused) return refused;
     if (o->auto_prior) start_prior(o, 0.0, 0.0, z1, z2);
-    obs_imm_update(o, z1, z2, h);
+    obs_imm_update(o, z1, z2, h, 1);
     return o->status;
 }
 

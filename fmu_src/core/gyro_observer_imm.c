@@ -3,16 +3,23 @@
  * and likelihood, the probabilities, each model's prediction, the combined estimate. */
 #include "gyro_observer_internal.h"
 
-/* x, P = the mixture of the filters (xs, Ps) with weights w (eqs. 11.6.6-21, -22). */
-static void combine(const GyroObserver *o, const double xs[][NMAX],
-                    const double Ps[][NMAX][NMAX], const double *w, double *x,
-                    double P[NMAX][NMAX]) {
+/* x = the mean of the filters' mixture with weights w (eq. 11.6.6-21). */
+static void mixture_mean(const GyroObserver *o, const double xs[][NMAX], const double *w,
+                         double *x) {
     const int M = o->n_models, n = o->n;
     for (int i = 0; i < n; i++) {
         double acc = 0.0;
         for (int j = 0; j < M; j++) acc += w[j] * xs[j][i];
         x[i] = acc;
     }
+}
+
+/* x, P = the mixture of the filters (xs, Ps) with weights w (eqs. 11.6.6-21, -22). */
+static void combine(const GyroObserver *o, const double xs[][NMAX],
+                    const double Ps[][NMAX][NMAX], const double *w, double *x,
+                    double P[NMAX][NMAX]) {
+    const int M = o->n_models, n = o->n;
+    mixture_mean(o, xs, w, x);
     if (M == 1) {
         memcpy(P, Ps[0], sizeof(double) * NMAX * NMAX);
         return;
@@ -111,8 +118,10 @@ void gyro_observer_combine(const GyroObserver *o, const double *w, double *x,
 }
 
 /* IMM correction at t: every filter corrected with the noise variances of the combined
- * prediction; mu = c x likelihood, normalized (eqs. 11.6.6-15 to -19); x, P combined. */
-void obs_imm_update(GyroObserver *o, double z1, double z2, double h) {
+ * prediction; mu = c x likelihood, normalized (eqs. 11.6.6-15 to -19); x combined, and P
+ * when with_P (the split API's update, whose P the outputs read; in gyro_observer_step
+ * the prediction's mixture replaces P before anything reads it, so it is not made). */
+void obs_imm_update(GyroObserver *o, double z1, double z2, double h, int with_P) {
     double R[2], nu[2], ll[GYRO_OBS_MMAX];
     obs_noise_variances(o, z1, z2, h, R, nu);
     obs_monitor_innovations(o, nu, R);
@@ -134,8 +143,11 @@ void obs_imm_update(GyroObserver *o, double z1, double z2, double h) {
     } else {
         o->mu[0] = 1.0;
     }
-    combine(o, (const double(*)[NMAX])o->xs, (const double(*)[NMAX][NMAX])o->Ps, o->mu, o->x,
-            o->P);
+    if (with_P)
+        combine(o, (const double(*)[NMAX])o->xs, (const double(*)[NMAX][NMAX])o->Ps, o->mu,
+                o->x, o->P);
+    else
+        mixture_mean(o, (const double(*)[NMAX])o->xs, o->mu, o->x);
 }
 
 /* Propagate one filter's x, P to t + h linearized about xbar ((s1, Phi, S) its held step):

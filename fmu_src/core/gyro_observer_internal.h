@@ -124,7 +124,7 @@ void obs_refit_restart(GyroObserver *o);
 double obs_refit_judge(GyroObserver *o, double h);
 
 /* gyro_observer_imm.c */
-void obs_imm_update(GyroObserver *o, double z1, double z2, double h);
+void obs_imm_update(GyroObserver *o, double z1, double z2, double h, int with_P);
 void obs_imm_predict(GyroObserver *o, double ux, double uy, double h);
 
 /* gyro_observer_monitor.c */
