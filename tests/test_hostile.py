@@ -229,6 +229,41 @@ def test_ctrl_c_before_the_first_step_is_an_interrupt_with_nothing_written(
     assert not (tmp_path / "run").exists()
 
 
+@pytest.mark.parametrize("again", [False, True])
+def test_ctrl_c_after_the_simulation_keeps_results_with_their_summary(
+        models_dir, tmp_path, monkeypatch, terminal_sigint, again):
+    """Ctrl-C while the results are read back for the summary (found by
+    benchmarks/interrupt_trials.py: results.csv and .parquet were left without
+    summary.json): the summary is finished first, then the interrupt is raised, naming
+    what is complete. A second Ctrl-C stops at once, leaving results that `gyro-fmu
+    report` refuses (no summary) rather than a wrong pair."""
+    import gyro_fmu.system.run as run
+
+    real = run.read_back
+
+    def ctrl_c_while_reading_back(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGINT)
+        if again:
+            os.kill(os.getpid(), signal.SIGINT)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(run, "read_back", ctrl_c_while_reading_back)
+    sc = scenario("default", stop_time=0.002)
+    out = tmp_path / "run"
+    if again:
+        with pytest.raises(KeyboardInterrupt, match="interrupted again"):
+            run_and_report(sc, out, models_dir, figures=True)
+        assert not (out / "summary.json").exists()
+    else:
+        with pytest.raises(KeyboardInterrupt, match="complete; the figures were not drawn"):
+            run_and_report(sc, out, models_dir, figures=True)
+        summary = json.loads((out / "summary.json").read_text())
+        assert "interrupted" not in summary
+        assert len(load_results(out / "results.csv")["time"]) == sc.n_steps + 1
+        assert not list(out.glob("*.png"))
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
 def test_co_simulation_interrupted_carries_the_points_so_far(models_dir, terminal_sigint):
     from gyro_fmu.system.run import run_fmus
 

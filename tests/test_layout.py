@@ -22,8 +22,9 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "gyro_fmu"
-RANKS = {"errors": -1, "options": -1, "extras": -0.5, "logs": -0.5, "core": 0, "upstream": 0,
-         "studies": 0, "outputs": 0, "cache": 0.5, "cosim": 1, "model": 1, "estimation": 2,
+RANKS = {"errors": -1, "options": -1, "extras": -0.5, "logs": -0.5, "interrupts": -0.5,
+         "core": 0, "upstream": 0, "studies": 0, "outputs": 0, "cache": 0.5, "cosim": 1,
+         "model": 1, "estimation": 2,
          "results": 2, "sensor": 2.5, "pythonfmu": 2.75, "fmu": 3, "doctor": 4, "system": 5,
          "selfcal": 5, "spec": 6, "cli": 7, "fmu_src": 8}
 #: Left for 0.1 FMUs only: raises a message on import (see its docstring).

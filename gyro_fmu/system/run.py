@@ -25,6 +25,7 @@ from ..cosim.master import CoSimulationInterrupted, CoSimulationResult, run_cosi
 from ..errors import GyroFmuError
 from ..estimation.metrics import ESTIMATED, RunMetrics, summarize
 from ..fmu.build import FMU_NAMES, MODELS_DIR, ensure_current
+from ..interrupts import Deferral
 from ..model.drive import DriveFarFromModesWarning
 from ..model.parameters import GyroParameters, ParameterError, validate_for_plant
 from ..model.plant import MeasurementNoise
@@ -173,37 +174,48 @@ def _run_into(sc: Scenario, out_dir: Path, models_dir: Path, fmus: Mapping[str, 
               figures: bool, ensure: bool) -> dict:
     """run_and_report's work, with the folder's lock held."""
     run_id = uuid.uuid4().hex
-    with ResultFiles(out_dir, run_id, expected_rows=sc.n_steps + 1) as files:  # removed
-        # again if the run fails
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            validate_for_plant(sc.params)  # the growth-rate warning goes into summary.json
-            _warn_if_drive_far(sc)
-            noise = absolute_noise(sc)
-            start = time.perf_counter()
-            try:
-                run_fmus(sc, models_dir, fmus, noise, ensure=ensure, sink=files)
-                interrupted = None
-            except CoSimulationInterrupted as exc:
-                if files.rows < 2:
-                    raise
-                interrupted = exc
-            wall = time.perf_counter() - start
-        # an old summary must never sit beside new results: it goes before they come
-        for name in ("summary.json", *FIGURES):  # nor an old figure
-            (out_dir / name).unlink(missing_ok=True)
-        record = files.close()
-    written = [CSV] + ([PARQUET] if "binary" in record else [])
-    metrics, data = read_back(out_dir / written[-1], sc.params,
-                              figures and interrupted is None)
-    summary = _summary(sc, metrics.summary(), files.finite, wall,
-                       [str(w.message) for w in caught], noise)
-    summary["run_id"] = run_id
-    summary["results"] = record
-    if interrupted is not None:
-        summary["interrupted"] = {"at_s": metrics.t_end, "message": str(interrupted)}
-    write_or_rescue(lambda path: path.write_text(json.dumps(summary, indent=2)),
-                    out_dir / "summary.json")
+    # from the simulation's end to summary.json, Ctrl-C waits: results never stay without
+    # the summary that describes them (a second Ctrl-C stops at once)
+    held = Deferral("gyro-fmu: finishing summary.json (Ctrl-C again to stop at once)")
+    try:
+        with ResultFiles(out_dir, run_id, expected_rows=sc.n_steps + 1) as files:  # removed
+            # again if the run fails
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                validate_for_plant(sc.params)  # the growth-rate warning goes into summary
+                _warn_if_drive_far(sc)
+                noise = absolute_noise(sc)
+                start = time.perf_counter()
+                try:
+                    run_fmus(sc, models_dir, fmus, noise, ensure=ensure, sink=files)
+                    interrupted = None
+                except CoSimulationInterrupted as exc:
+                    if files.rows < 2:
+                        raise
+                    interrupted = exc
+                wall = time.perf_counter() - start
+            held.start()
+            # an old summary must never sit beside new results: it goes before they come
+            for name in ("summary.json", *FIGURES):  # nor an old figure
+                (out_dir / name).unlink(missing_ok=True)
+            record = files.close()
+        written = [CSV] + ([PARQUET] if "binary" in record else [])
+        metrics, data = read_back(out_dir / written[-1], sc.params,
+                                  figures and interrupted is None)
+        summary = _summary(sc, metrics.summary(), files.finite, wall,
+                           [str(w.message) for w in caught], noise)
+        summary["run_id"] = run_id
+        summary["results"] = record
+        if interrupted is not None:
+            summary["interrupted"] = {"at_s": metrics.t_end, "message": str(interrupted)}
+        write_or_rescue(lambda path: path.write_text(json.dumps(summary, indent=2)),
+                        out_dir / "summary.json")
+    finally:
+        held.stop()
+    if held.caught and interrupted is None:  # the simulation had ended: all of it is kept
+        raise KeyboardInterrupt(
+            f"after the simulation: {out_dir} holds {', '.join(written)} and summary.json, "
+            f"complete; the figures were not drawn (`gyro-fmu report {out_dir}` draws them)")
     if interrupted is not None:
         interrupted.args = (f"{interrupted}; wrote what was simulated to {out_dir}: "
                             f"{', '.join(written)} and summary.json",)

@@ -1,0 +1,46 @@
+"""Ctrl-C (and SIGTERM, which the CLI turns into it) held off while files that belong
+together are finished: a `Deferral` records the signal instead of raising it, so that an
+interrupted `gyro-fmu run` never leaves complete results without the summary.json that
+describes them. A second signal while held raises at once (the user insists; `gyro-fmu
+report` then refuses results without their summary). Only in the main thread, and only
+for a signal whose handler is Python's default (a background job's ignored SIGINT stays
+ignored)."""
+
+from __future__ import annotations
+
+import signal
+import sys
+import threading
+
+
+class Deferral:
+    """start() holds SIGINT/SIGTERM, stop() restores their handlers; `caught` tells whether
+    one came in between (the caller then raises KeyboardInterrupt when done)."""
+
+    def __init__(self, note: str = "") -> None:
+        self.note = note
+        self.caught: list[int] = []
+        self._replaced: dict[int, object] = {}
+
+    def _hold(self, signum: int, frame: object) -> None:
+        if self.caught:
+            raise KeyboardInterrupt("interrupted again while finishing the outputs")
+        self.caught.append(signum)
+        if self.note:
+            print(self.note, file=sys.stderr, flush=True)
+
+    def start(self) -> Deferral:
+        if threading.current_thread() is not threading.main_thread():
+            return self
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            handler = signal.getsignal(signum)
+            if (handler is signal.default_int_handler if signum == signal.SIGINT
+                    else callable(handler)):  # Python's Ctrl-C, or the CLI's SIGTERM handler
+                self._replaced[signum] = handler
+                signal.signal(signum, self._hold)
+        return self
+
+    def stop(self) -> None:
+        for signum, handler in self._replaced.items():
+            signal.signal(signum, handler)  # type: ignore[arg-type]
+        self._replaced.clear()
