@@ -1,9 +1,11 @@
 """Fuzz fmi2DeSerializeFMUstate / fmi2SetFMUstate of real FMUs with mutated states.
 
 For each FMU a genuine serialized state (initialized, after a few steps) is mutated:
-bit flips, truncations, and JSON-aware mutations (wrong types, extra and missing keys,
-the slave's method names as variable names, huge / NaN / infinite numbers, wrong list
-lengths, nested garbage). Every trial runs deserialize -> set state -> doStep ->
+bit flips, truncations, and for a pythonfmu FMU's JSON state JSON-aware mutations (wrong
+types, extra and missing keys, the slave's method names as variable names, huge / NaN /
+infinite numbers, wrong list lengths, nested garbage), for a native FMU's binary state
+byte-level ones (NaN, infinite or huge doubles, zeroed or random regions, words moved,
+garbage appended). Every trial runs deserialize -> set state -> doStep ->
 terminate -> free on a fresh instance through fmpy, in a worker subprocess, so a crash
 (a signal, an abort) is seen as the worker's exit code; the parent restarts after the
 trial that crashed. "crashes" are workers killed by a signal (segfault, abort);
@@ -24,6 +26,7 @@ import argparse
 import json
 import math
 import random
+import struct
 import subprocess
 import sys
 import tempfile
@@ -61,8 +64,43 @@ def _nested(rng: random.Random) -> str:
     return text
 
 
+def binary_mutate(blob: bytes, rng: random.Random) -> bytes:
+    """One mutated copy of a native FMU's binary state (fmu_src/fmi/instance_states.c: a
+    header, then the model's data): bit flips, truncation, garbage appended, a double
+    (8-byte aligned) made NaN, infinite, huge, tiny or negative, a region zeroed or
+    random, a word copied elsewhere."""
+    data = bytearray(blob)
+    kind = rng.randrange(7)
+    if kind == 0:
+        for _ in range(rng.randint(1, 8)):
+            i = rng.randrange(len(data))
+            data[i] ^= 1 << rng.randrange(8)
+    elif kind == 1:
+        return blob[:rng.randrange(len(blob))]
+    elif kind == 2:
+        data += bytes(rng.randrange(256) for _ in range(rng.randint(1, 64)))
+    elif kind == 3:
+        weird = (float("nan"), float("inf"), -float("inf"), 1e308, -1e308, 1e-320, -1.0, 0.0)
+        for _ in range(rng.randint(1, 4)):
+            i = 8 * rng.randrange(len(data) // 8)
+            data[i:i + 8] = struct.pack("<d", rng.choice(weird))
+    elif kind in (4, 5):
+        i = rng.randrange(len(data))
+        n = min(rng.randint(1, 256), len(data) - i)
+        data[i:i + n] = bytes(n) if kind == 4 else bytes(rng.randrange(256) for _ in range(n))
+    else:
+        i, j = (8 * rng.randrange(len(data) // 8) for _ in range(2))
+        data[j:j + 8] = data[i:i + 8]
+    return bytes(data)
+
+
 def mutate(blob: bytes, rng: random.Random) -> bytes:
-    """One mutated copy of a serialized state."""
+    """One mutated copy of a serialized state: JSON-aware for a pythonfmu FMU's state,
+    byte-level for a native FMU's binary one."""
+    try:
+        json.loads(blob)
+    except (ValueError, UnicodeDecodeError):
+        return binary_mutate(blob, rng)
     kind = rng.randrange(10)
     if kind == 0:  # bit flips
         data = bytearray(blob)
@@ -160,7 +198,10 @@ def _worker(fmu: Path, seed: int, first: int, count: int, h: float) -> None:
             s.freeFMUstate(state)
         except FMICallException:
             pass
-        refused = any("restoring the FMU state failed" in m for *_, m in log.messages)
+        refused = any("restoring the FMU state failed" in m  # pythonfmu flavour
+                      or "deserialize FMU state refused" in m  # native (instance_states.c)
+                      for *_, m in log.messages)
+        seen = len(log.messages)
         try:
             s.doStep(t, h)
             stepped = True
@@ -170,14 +211,16 @@ def _worker(fmu: Path, seed: int, first: int, count: int, h: float) -> None:
         finite = all(math.isfinite(v) for v in values)
         s.terminate()
         s.freeInstance()
-        print(f"done {i} {'refused' if refused else 'accepted'} {int(stepped)} {int(finite)}",
-              flush=True)
+        why = " ".join(m for *_, m in log.messages[seen:seen + 1]).replace("\n", " ")
+        print(f"done {i} {'refused' if refused else 'accepted'} {int(stepped)} {int(finite)} "
+              f"{why if not stepped else ''}", flush=True)
 
 
 # --- parent: batches in subprocesses, crash detection -----------------------
 def fuzz(fmu: Path, trials: int, seed: int, batch: int, h: float) -> dict:
     row = {"fmu": fmu.stem, "trials": 0, "refused": 0, "accepted": 0, "crashes": 0, "fatal": 0,
-           "accepted_finite": 0, "accepted_stepped": 0, "crashed_trials": []}
+           "accepted_finite": 0, "accepted_stepped": 0, "crashed_trials": [],
+           "not_stepped": {}}
     i = 0
     while i < trials:
         n = min(batch, trials - i)
@@ -195,6 +238,9 @@ def fuzz(fmu: Path, trials: int, seed: int, batch: int, h: float) -> dict:
                 if parts[2] == "accepted":
                     row["accepted_stepped"] += int(parts[3])
                     row["accepted_finite"] += int(parts[4])
+                    if parts[3] == "0":  # why an accepted state did not step
+                        why = " ".join(parts[5:])[:100]
+                        row["not_stepped"][why] = row["not_stepped"].get(why, 0) + 1
                 last = int(parts[1]) + 1
         if proc.returncode != 0:
             kind = "fatal" if proc.returncode == 1 else "crashes"
@@ -239,6 +285,8 @@ def main() -> None:
               f"{r['accepted_finite']:10}")
         for c in r["crashed_trials"]:
             print(f"  crash at trial {c}")
+        for why, n in sorted(r["not_stepped"].items(), key=lambda kv: -kv[1])[:3]:
+            print(f"  accepted, then the step refused ({n}x): {why}")
 
 
 def run(names, trials: int, seed: int = 0, batch: int = 100, models: Path | None = None):
