@@ -13,6 +13,28 @@ import sys
 import threading
 
 
+def hold_signals(handler) -> dict[int, object]:
+    """Install handler for SIGINT and SIGTERM where Python handles them (SIGINT at Python's
+    default, SIGTERM with a Python handler such as the CLI's), in the main thread only;
+    returns the handlers replaced, for `restore_signals`."""
+    replaced: dict[int, object] = {}
+    if threading.current_thread() is not threading.main_thread():
+        return replaced
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        current = signal.getsignal(signum)
+        if (current is signal.default_int_handler if signum == signal.SIGINT
+                else callable(current)):
+            replaced[signum] = current
+            signal.signal(signum, handler)
+    return replaced
+
+
+def restore_signals(replaced: dict[int, object]) -> None:
+    for signum, handler in replaced.items():
+        signal.signal(signum, handler)  # type: ignore[arg-type]
+    replaced.clear()
+
+
 class Deferral:
     """start() holds SIGINT/SIGTERM, stop() restores their handlers; `caught` tells whether
     one came in between (the caller then raises KeyboardInterrupt when done)."""
@@ -30,17 +52,8 @@ class Deferral:
             print(self.note, file=sys.stderr, flush=True)
 
     def start(self) -> Deferral:
-        if threading.current_thread() is not threading.main_thread():
-            return self
-        for signum in (signal.SIGINT, signal.SIGTERM):
-            handler = signal.getsignal(signum)
-            if (handler is signal.default_int_handler if signum == signal.SIGINT
-                    else callable(handler)):  # Python's Ctrl-C, or the CLI's SIGTERM handler
-                self._replaced[signum] = handler
-                signal.signal(signum, self._hold)
+        self._replaced = hold_signals(self._hold)
         return self
 
     def stop(self) -> None:
-        for signum, handler in self._replaced.items():
-            signal.signal(signum, handler)  # type: ignore[arg-type]
-        self._replaced.clear()
+        restore_signals(self._replaced)

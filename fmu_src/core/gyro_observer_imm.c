@@ -64,8 +64,9 @@ static int uniform_switching(const GyroObserver *o, double *stay, double *leave)
  *     x0j = a_j x_j + (1 - a_j) xbar,    a_j = (stay - leave) mu_j / c_j,
  *     P0j = a_j P_j + (1 - a_j) T + a_j (1 - a_j) e_j e_j'
  * (the same mixture in exact arithmetic: sum_i w_i (P_i + d_i d_i') with d_i = e_i -
- * a_j e_j; every term positive semi-definite, as before). Another Pi (a restored state's)
- * takes the general sum. */
+ * a_j e_j; every term positive semi-definite, as before). obs_set_rates always builds Pi
+ * so (a restored state's too: it is rebuilt at the next step); a Pi set otherwise
+ * through the struct takes the general sum. */
 void gyro_observer_mix(GyroObserver *o) {
     const int M = o->n_models, n = o->n;
     if (M == 1) {

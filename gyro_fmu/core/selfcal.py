@@ -34,7 +34,9 @@ DEMOD_ORDER, DEMOD_CHANNELS = int(structs.DEMOD_ORDER), int(structs.DEMOD_CHANNE
 #: The structs, as ctypes mirrors of their one declaration (gyro_fmu.core.structs).
 Rng = RNG.ctypes()
 (ResonatorParams, ResonatorMaps, Resonator, LoopSettings, LoopGains, LoopState, LoopOutputs,
- Loops, Demod) = (s.ctypes() for s in structs.STRUCTS)
+ Loops, Demod) = (s.ctypes() for s in (
+    structs.RESONATOR_PARAMS, structs.RESONATOR_MAPS, structs.RESONATOR, structs.LOOP_SETTINGS,
+    structs.LOOP_GAINS, structs.LOOP_STATE, structs.LOOP_OUTPUTS, structs.LOOPS, structs.DEMOD))
 
 
 _P = POINTER(_D)

@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import math
 import os
-import signal
-import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from ctypes import c_void_p, cast
@@ -22,6 +20,7 @@ from fmpy.fmi2 import (  # type: ignore[attr-defined]
     FMU2Slave,
 )
 
+from ..interrupts import hold_signals, restore_signals
 from .instances import (
     Instance,
     LogCollector,
@@ -175,22 +174,12 @@ def _interrupt_between_chunks() -> Iterator[Callable[[], bool]]:
     where pythonfmu turns it into fmi2Fatal. Only in the main thread, and only for a
     signal whose handler is Python's (a background job's SIGINT is ignored: it stays so).
     """
-    if threading.current_thread() is not threading.main_thread():
-        yield lambda: False
-        return
     caught: list[int] = []
-    replaced = {}
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        handler = signal.getsignal(signum)
-        if (handler is signal.default_int_handler if signum == signal.SIGINT
-                else callable(handler)):  # Python's Ctrl-C, or the CLI's SIGTERM handler
-            replaced[signum] = handler
-            signal.signal(signum, lambda n, frame: caught.append(n))
+    replaced = hold_signals(lambda n, frame: caught.append(n))
     try:
         yield lambda: bool(caught)
     finally:
-        for signum, handler in replaced.items():
-            signal.signal(signum, handler)
+        restore_signals(replaced)
 
 
 #: fmi2Status codes above fmi2Warning, as the standard names them.
