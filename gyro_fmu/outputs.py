@@ -211,4 +211,13 @@ def save_figure(fig: object, path: Path, **savefig: object) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fmt = path.suffix.lstrip(".") or "png"
-    return atomic_write(path, lambda p: fig.savefig(p, format=fmt, **savefig))  # type: ignore[attr-defined]
+
+    def write(p: Path) -> None:
+        # the file is opened here, not by savefig: Pillow 13.0's Image.save (matplotlib's
+        # PNG writer) closes a file it opened only on an Exception, so a Ctrl-C inside it
+        # left the file open (a ResourceWarning, and a handle held until collected).
+        # Canary: tests/test_upstream.py::test_pillow_still_leaks_its_file_on_an_interrupt
+        with p.open("wb") as f:
+            fig.savefig(f, format=fmt, **savefig)  # type: ignore[attr-defined]
+
+    return atomic_write(path, write)

@@ -104,8 +104,9 @@ def _invoke(argv: list[str], folder: Path, budget: float
     escaped = None
     # what an earlier trial left for the garbage collector (a generator or a file of an
     # interrupted run, whose finalizer warns) is collected here, so that its warnings are
-    # no later trial's (they were, twice: a ResourceWarning and the overflows of a 1e300
-    # trial recorded one or two trials later, design-drive --seed 0). Before every trial:
+    # no later trial's. (The ResourceWarning of design-drive --seed 0 in stops 52-53 was
+    # that trial's own: its alarm cut Pillow's PNG writer, which then left its file open;
+    # outputs.save_figure now opens the file itself.) Before every trial:
     # `fuzz` froze what existed before the first one, so a collection walks only what the
     # trials made (a full one over the whole heap cost 57 ms, 45 s over every trial).
     with warnings.catch_warnings(record=True):

@@ -213,3 +213,56 @@ def test_fmu_container_still_fails_on_an_init_warning(models_dir: Path, tmp_path
         fmpy.simulate_fmu(str(container), stop_time=1e-4, output_interval=5e-6,
                           start_values=dict(patent), logger=lambda *a: told.append(a[-1]))
     assert any(b"indefinite" in m for m in told)
+
+
+def _interrupted_png_save(monkeypatch: pytest.MonkeyPatch, save) -> list[str]:
+    """save() with Pillow's PNG encoder interrupted (a Ctrl-C inside it): the warnings it
+    left once collected."""
+    import gc
+    import warnings
+
+    from PIL import PngImagePlugin
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt("inside Pillow's PNG writer")
+
+    monkeypatch.setattr(PngImagePlugin, "_save", interrupted)
+    monkeypatch.setitem(PngImagePlugin.Image.SAVE, "PNG", interrupted)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with pytest.raises(KeyboardInterrupt):
+            save()
+        gc.collect()
+    return [f"{w.category.__name__}: {w.message}" for w in caught]
+
+
+def test_pillow_still_leaks_its_file_on_an_interrupt(tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """Pillow 13.0's Image.save closes the file it opened only on an Exception: a Ctrl-C
+    inside the encoder leaves it open (gyro_fmu.outputs.save_figure opens the file
+    itself). The stop-53 CI flake of the CLI fuzzer (a trial cut by its alarm there)."""
+    from PIL import Image
+
+    image = Image.new("RGB", (4, 4))
+    said = _interrupted_png_save(monkeypatch, lambda: image.save(tmp_path / "a.png"))
+    assert any(w.startswith("ResourceWarning") for w in said), said
+
+
+def test_an_interrupted_figure_leaves_no_open_file(tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    pytest.importorskip("matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from gyro_fmu.outputs import save_figure
+
+    fig, _ = plt.subplots()
+    try:
+        said = _interrupted_png_save(monkeypatch,
+                                     lambda: save_figure(fig, tmp_path / "f.png"))
+    finally:
+        plt.close(fig)
+    assert said == [], said
+    assert list(tmp_path.iterdir()) == []  # nothing half-written either

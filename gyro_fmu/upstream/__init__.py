@@ -26,6 +26,9 @@ Here, those of the other libraries:
 - fmpy 0.3.32's `create_plotly_figure` (behind `plot_result`) rescales the time column of
   the array it is given, in place (to ms for a run under 1 s): examples/read_results.py
   hands it a copy (canary `test_fmpy_still_rescales_the_time_it_plots`).
+- Pillow 13.0's `Image.save` (matplotlib's PNG writer) closes the file it opened only on
+  an Exception, so a Ctrl-C inside it leaves the file open: `gyro_fmu.outputs.save_figure`
+  opens the file itself (canary `test_pillow_still_leaks_its_file_on_an_interrupt`).
 - libcosimpy 0.0.6's `time_series_real_samples` drops a sample when step 0 is asked for:
   `libcosim_samples` (canary `test_libcosimpy_still_drops_a_sample`).
 - fmu-manipulation-toolbox 2.0's container runtime fails the container when an embedded
