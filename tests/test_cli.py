@@ -131,8 +131,8 @@ def test_a_drive_far_from_the_modes_is_named_with_the_tones_to_use(models_dir, t
               "--no-figures"]
     assert main([*common, "--out", str(tmp_path / "a"), *sets]) == 0
     err = capsys.readouterr().err
-    m = re.search(r"is ([\d.]+) times what tones at (\d+) \+ (\d+) Hz give; use --drive "
-                  r"f1=\2 --drive f2=\3", err)
+    m = re.search(r"is ([\d.]+) times what tones at (\d+) \+ (\d+) Hz give; set "
+                  r"f1=\2 and f2=\3 Hz", err)
     assert m and float(m[1]) > 2, err
     assert main([*common, "--out", str(tmp_path / "b"), *sets, "--drive", f"f1={m[2]}",
                  "--drive", f"f2={m[3]}"]) == 0

@@ -73,6 +73,13 @@ CORE_FUNCTIONS = {
                                            c_size_t]),
     "gyro_rate_nyquist_problem": (c_int, [POINTER(RateProfile), c_double, c_char_p,
                                           c_size_t]),
+    "gyro_drive_rate_bound": (c_double, [POINTER(Params), POINTER(TwoToneDrive), c_double,
+                                         c_double, c_int, c_double]),
+    "gyro_drive_information_loss": (c_double, [POINTER(Params), POINTER(TwoToneDrive),
+                                               c_double, c_double, c_int,
+                                               POINTER(TwoToneDrive)]),
+    "gyro_drive_warning": (c_int, [POINTER(Params), POINTER(TwoToneDrive), c_double, c_double,
+                                   c_int, c_char_p, c_size_t]),
 }
 
 

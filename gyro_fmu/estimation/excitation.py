@@ -29,6 +29,7 @@ on Omega_z); ``"steady"`` on the periodic orbit of the drive.
 
 from __future__ import annotations
 
+import ctypes
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -37,6 +38,7 @@ from typing import Literal
 
 import numpy as np
 
+from ..core.library import core, core_text
 from ..model.drive import (
     DriveFarFromModesWarning,  # noqa: F401 - its home until 0.4.0
     TwoToneDrive,
@@ -237,56 +239,37 @@ def design_drive(
                        noise_kind, window, h, Omega_z, measured_pair, start, params)
 
 
-#: Tones placed around the guessed modes, as (f1, f2) from the lower and higher mode
-#: (Hz): the candidates drive_information_loss compares a drive with. Measured on 16
-#: random gyros (40 ms, noise 1e-4): the best of them beats the default 4000 + 1200 Hz
-#: by 1.5-61x on 13 of them, and loses to it on both presets (0.65-0.79).
-MODE_TONES = (
-    lambda lo, hi: (0.97 * lo, 1.03 * hi),
-    lambda lo, hi: (0.99 * lo, 1.01 * hi),
-    lambda lo, hi: (0.9 * lo, 1.1 * hi),
-    lambda lo, hi: (0.98 * lo, 0.98 * hi + 0.02 * lo),
-)
-#: A drive is far from the modes when its bound is more than this times the best one's.
-DRIVE_LOSS_WARN = 2.0
-
-
 def drive_information_loss(guess: GyroParameters, drive: TwoToneDrive, Omega_z: float = 1.0,
-                           h: float = 5e-6, measured_pair: int = 1, window: float = 0.04
+                           h: float = 5e-6, measured_pair: int = 1
                            ) -> tuple[float, TwoToneDrive]:
-    """(loss, proposal): the Cramer-Rao sigma of Omega_z over `window` from rest with this
-    drive, divided by the best of MODE_TONES around the guess's modes (same amplitudes;
-    relative noise, so the ratio depends on neither the noise level nor the force), and
-    that best drive. About 0.1 s."""
-    fx, fy = (math.sqrt(k) / (2 * math.pi) for k in (guess.kxx, guess.kyy))
-    lo, hi = min(fx, fy), max(fx, fy)
-    here = crb(guess, drive, Omega_z, 1e-4, window, h, measured_pair)["Omega_z"]
-    best, proposal = math.inf, drive
-    for rule in MODE_TONES:
-        f1, f2 = rule(lo, hi)
-        if f2 >= 0.5 / h:
-            continue
-        candidate = TwoToneDrive(A1=drive.A1, f1=f1, A2=drive.A2, f2=f2)
-        sigma = crb(guess, candidate, Omega_z, 1e-4, window, h, measured_pair)["Omega_z"]
-        if sigma < best:
-            best, proposal = sigma, candidate
-    return (here / best if math.isfinite(best) else 1.0), proposal
+    """(loss, proposal): the Cramer-Rao sigma of Omega_z over 40 ms from rest with this
+    drive, divided by the best of the tones the C core places around the guess's modes
+    (same amplitudes; relative noise, so the ratio depends on neither the noise level nor
+    the force), and that best drive: the core's gyro_drive_information_loss, which
+    GyroSensor.fmu logs from (fmu_src/core/gyro_excitation.h). About 25 ms at h = 5 us."""
+    from ..core.library import TwoToneDrive as CDrive
+    from ..model.parameters import _c_params
+
+    best = CDrive()
+    loss = core().gyro_drive_information_loss(_c_params(guess), drive.c_struct,
+                                              float(Omega_z), float(h), int(measured_pair),
+                                              ctypes.byref(best))
+    if not math.isfinite(loss):
+        raise ParameterError(f"no Cramer-Rao bound for guess {guess} at step h={h!r} s, "
+                             f"measured_pair={measured_pair!r}: give a usable guess, a "
+                             "finite step > 0 and measured_pair 1 or 2")
+    return loss, TwoToneDrive(A1=best.A1, f1=best.f1, A2=best.A2, f2=best.f2)
 
 
 def drive_warning(guess: GyroParameters, drive: TwoToneDrive, Omega_z: float, h: float,
                   measured_pair: int) -> str | None:
-    """The words of a DriveFarFromModesWarning for this drive, or None when it is within
-    DRIVE_LOSS_WARN of tones around the guessed modes."""
-    if not (drive.A1 or drive.A2):
-        return None
-    loss, best = drive_information_loss(guess, drive, Omega_z or 1.0, h, measured_pair)
-    if loss <= DRIVE_LOSS_WARN:
-        return None
-    fx, fy = (math.sqrt(k) / (2 * math.pi) for k in (guess.kxx, guess.kyy))
-    return (f"the drive's tones {drive.f1:g} + {drive.f2:g} Hz are far from the guessed modes "
-            f"({fx:.0f} and {fy:.0f} Hz): the Cramer-Rao bound on Omega_z over 40 ms is "
-            f"{loss:.3g} times what tones at {best.f1:.0f} + {best.f2:.0f} Hz give; use "
-            f"--drive f1={best.f1:.0f} --drive f2={best.f2:.0f}, or `gyro-fmu design-drive`")
+    """The words of a DriveFarFromModesWarning for this drive (the core's
+    gyro_drive_warning, the text GyroSensor.fmu logs), or None when it is within the
+    core's GYRO_DRIVE_LOSS_WARN (2) of tones around the guessed modes."""
+    from ..model.parameters import _c_params
+
+    return core_text("gyro_drive_warning", _c_params(guess), drive.c_struct, float(Omega_z),
+                     float(h), int(measured_pair))
 
 
 def natural_frequencies(params: GyroParameters, Omega_z: float = 0.0) -> list[float]:

@@ -69,7 +69,8 @@ STANDARD_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform
                     "fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")
 CORE_SOURCES = ("gyro_text.c", "gyro_rng.c", "gyro_plant.c", "gyro_signals.c",
                 *OBSERVER_SOURCES, "gyro_master.c", "gyro_linalg.c", "gyro_resonator.c",
-                "gyro_loops.c", "gyro_carrier.c", "gyro_demod.c", "gyro_chain.c")
+                "gyro_loops.c", "gyro_carrier.c", "gyro_demod.c", "gyro_chain.c",
+                "gyro_excitation.c")
 #: Core sources every model's binary needs (the FMI layer's messages).
 COMMON_CORE = ("gyro_text.c",)
 GENERATION_TOOL = "gyro_fmu (native C, zig cc)"

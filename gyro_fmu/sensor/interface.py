@@ -133,7 +133,7 @@ SENSOR = FmuInterface(
     doctor_check=({"Omega_z": 1.0}, OUTPUTS),
     reference_inputs=_reference_inputs,
     core_sources=("gyro_rng.c", "gyro_plant.c", *OBSERVER_SOURCES, "gyro_signals.c",
-                  "gyro_sensor.c"),
+                  "gyro_linalg.c", "gyro_excitation.c", "gyro_sensor.c"),
     default_experiment=(0.05, 1e-3),
     datasheet=True,
     struct_copies=(

@@ -7,7 +7,9 @@
 #include <stddef.h>
 #include <stdio.h>
 
+#include "gyro_excitation.h"
 #include "gyro_sensor.h"
+#include "gyro_text.h"
 #include "model.h"
 #include "variables.h"
 
@@ -51,7 +53,14 @@ static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) 
         return GYRO_HOOK_ERROR;
     d->warnings_logged = d->saturation_logged = 0;
     publish(d);
-    return gyro_params_warning(&s.truth, msg, n) ? GYRO_HOOK_WARNING : GYRO_HOOK_OK;
+    /* a growing mode of the gyro, and a drive that leaves the rate weakly observable
+     * (its tones far from the design's modes: gyro_excitation.h), before the run */
+    char drive[GYRO_OBS_MESSAGE];
+    gyro_params_warning(&s.truth, msg, n); /* "" when none */
+    if (gyro_drive_warning(&s.design, &s.drive, v->Omega_z_0, d->sensor.h, 1, drive,
+                           sizeof drive))
+        gyro_text_add(msg, n, drive);
+    return msg[0] ? GYRO_HOOK_WARNING : GYRO_HOOK_OK;
 }
 
 static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) {
