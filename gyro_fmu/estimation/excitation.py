@@ -29,7 +29,6 @@ on Omega_z); ``"steady"`` on the periodic orbit of the drive.
 
 from __future__ import annotations
 
-import ctypes
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -38,10 +37,11 @@ from typing import Literal
 
 import numpy as np
 
-from ..core.library import core, core_text
-from ..model.drive import (
-    DriveFarFromModesWarning,  # noqa: F401 - its home until 0.4.0
+from ..model.drive import (  # noqa: F401 - the drive's warning is the core's, bound there
+    DriveFarFromModesWarning,
     TwoToneDrive,
+    drive_information_loss,
+    drive_warning,
 )
 from ..model.measurement import UNKNOWNS
 from ..model.parameters import GyroParameters, ParameterError
@@ -237,39 +237,6 @@ def design_drive(
     objective[np.arange(n), np.arange(n), :] = np.nan
     return DriveDesign(freqs, splits_a, sigma, objective, weights, float(force_limit), noise,
                        noise_kind, window, h, Omega_z, measured_pair, start, params)
-
-
-def drive_information_loss(guess: GyroParameters, drive: TwoToneDrive, Omega_z: float = 1.0,
-                           h: float = 5e-6, measured_pair: int = 1
-                           ) -> tuple[float, TwoToneDrive]:
-    """(loss, proposal): the Cramer-Rao sigma of Omega_z over 40 ms from rest with this
-    drive, divided by the best of the tones the C core places around the guess's modes
-    (same amplitudes; relative noise, so the ratio depends on neither the noise level nor
-    the force), and that best drive: the core's gyro_drive_information_loss, which
-    GyroSensor.fmu logs from (fmu_src/core/gyro_excitation.h). About 25 ms at h = 5 us."""
-    from ..core.library import TwoToneDrive as CDrive
-    from ..model.parameters import _c_params
-
-    best = CDrive()
-    loss = core().gyro_drive_information_loss(_c_params(guess), drive.c_struct,
-                                              float(Omega_z), float(h), int(measured_pair),
-                                              ctypes.byref(best))
-    if not math.isfinite(loss):
-        raise ParameterError(f"no Cramer-Rao bound for guess {guess} at step h={h!r} s, "
-                             f"measured_pair={measured_pair!r}: give a usable guess, a "
-                             "finite step > 0 and measured_pair 1 or 2")
-    return loss, TwoToneDrive(A1=best.A1, f1=best.f1, A2=best.A2, f2=best.f2)
-
-
-def drive_warning(guess: GyroParameters, drive: TwoToneDrive, Omega_z: float, h: float,
-                  measured_pair: int) -> str | None:
-    """The words of a DriveFarFromModesWarning for this drive (the core's
-    gyro_drive_warning, the text GyroSensor.fmu logs), or None when it is within the
-    core's GYRO_DRIVE_LOSS_WARN (2) of tones around the guessed modes."""
-    from ..model.parameters import _c_params
-
-    return core_text("gyro_drive_warning", _c_params(guess), drive.c_struct, float(Omega_z),
-                     float(h), int(measured_pair))
 
 
 def natural_frequencies(params: GyroParameters, Omega_z: float = 0.0) -> list[float]:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import ctypes
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -9,11 +11,12 @@ import numpy as np
 from ..core.library import TwoToneDrive as CDrive
 from ..core.library import core as _core
 from ..core.library import core_text
+from .parameters import GyroParameters, ParameterError, _c_params
 
 
 class DriveFarFromModesWarning(UserWarning):
     """The drive's tones carry much less information on Omega_z than tones placed around
-    the guessed modes would (estimation.excitation.drive_information_loss)."""
+    the guessed modes would (drive_information_loss)."""
 
 
 @dataclass(frozen=True)
@@ -64,3 +67,31 @@ class TwoToneDrive:
         its Nyquist frequency aliases), None if it can: the core's check, which
         TwoToneDrive.fmu logs as a warning."""
         return core_text("gyro_drive_nyquist_problem", self._c, step)
+
+
+def drive_information_loss(guess: GyroParameters, drive: TwoToneDrive, Omega_z: float = 1.0,
+                           h: float = 5e-6, measured_pair: int = 1
+                           ) -> tuple[float, TwoToneDrive]:
+    """(loss, proposal): the Cramer-Rao sigma of Omega_z over 40 ms from rest with this
+    drive, divided by the best of the tones the C core places around the guess's modes
+    (same amplitudes; relative noise, so the ratio depends on neither the noise level nor
+    the force), and that best drive: the core's gyro_drive_information_loss, which
+    GyroSensor.fmu logs from (fmu_src/core/gyro_excitation.h). About 25 ms at h = 5 us."""
+    best = CDrive()
+    loss = _core().gyro_drive_information_loss(_c_params(guess), drive.c_struct,
+                                              float(Omega_z), float(h), int(measured_pair),
+                                              ctypes.byref(best))
+    if not math.isfinite(loss):
+        raise ParameterError(f"no Cramer-Rao bound for guess {guess} at step h={h!r} s, "
+                             f"measured_pair={measured_pair!r}: give a usable guess, a "
+                             "finite step > 0 and measured_pair 1 or 2")
+    return loss, TwoToneDrive(A1=best.A1, f1=best.f1, A2=best.A2, f2=best.f2)
+
+
+def drive_warning(guess: GyroParameters, drive: TwoToneDrive, Omega_z: float, h: float,
+                  measured_pair: int) -> str | None:
+    """The words of a DriveFarFromModesWarning for this drive (the core's
+    gyro_drive_warning, the text GyroSensor.fmu logs), or None when it is within the
+    core's GYRO_DRIVE_LOSS_WARN (2) of tones around the guessed modes."""
+    return core_text("gyro_drive_warning", _c_params(guess), drive.c_struct, float(Omega_z),
+                     float(h), int(measured_pair))
