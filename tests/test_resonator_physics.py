@@ -258,3 +258,15 @@ def test_fmu_state_with_the_new_noise_and_ramp_restores_exactly(models_dir):
         models_dir / "GyroResonator.fmu", {**ALL_ON, "noise": 1e-3, "seed": 5},
         ["Vpx", "Vpy"], lambda t: {"Vx": math.sin(2 * math.pi * 4000 * t), "Vy": 0.0,
                                    "Omega_z": 0.2}, H, 4000, 300)
+
+
+@pytest.mark.parametrize("name", ["noise", "drive_noise"])
+def test_a_noise_of_no_electronics_is_refused_by_name(name):
+    """A pick-off or drive noise beyond GYRO_RES_NOISE_MAX (1 kV per sample on carriers of
+    about 1 V) is refused naming it: the CLI fuzzer's `selfcal --noise 1e300` ran the
+    loops into NaNs and refused with words about the PLL (or, under load, escaped as
+    numpy's LinAlgError)."""
+    said = check_resonator(ResonatorParameters(**{name: 1e300}))
+    assert any(s.startswith(f"{name}=1e+300 V per sample must lie in [0, 1000] V")
+               for s in said), said
+    assert check_resonator(ResonatorParameters(**{name: 1e3})) == []

@@ -94,6 +94,13 @@ int gyro_resonator_problems(const GyroResonatorParams *p, char *msg, size_t n) {
             snprintf(text, sizeof text, "%s=%s %s must be >= 0", nonneg[i].name,
                      gyro_real_text(nonneg[i].value, v), nonneg[i].unit);
             gyro_text_add(msg, n, text);
+        } else if (i < 2 && !(nonneg[i].value <= GYRO_RES_NOISE_MAX)) {
+            /* a pick-off or drive noise a million times the 1 V carrier is no electronics:
+             * the loops would fail on NaNs with no word of the noise */
+            snprintf(text, sizeof text, "%s=%s V per sample must lie in [0, %g] V (the "
+                     "carriers are about 1 V)", nonneg[i].name,
+                     gyro_real_text(nonneg[i].value, v), GYRO_RES_NOISE_MAX);
+            gyro_text_add(msg, n, text);
         }
     if (p->warmup_span != 0.0 && !(p->warmup_tau > 0.0)) {
         snprintf(text, sizeof text, "warmup_tau=%s s must be > 0 with a warm-up "

@@ -13,6 +13,8 @@ RES_FORCED = Constant("GYRO_RES_FORCED", 6,
                       "states the force noise reaches: x, y, vx, vy, zx, zy")
 DEMOD_ORDER = Constant("GYRO_DEMOD_ORDER", 5, "cascaded boxcars of the demodulator")
 DEMOD_CHANNELS = Constant("GYRO_DEMOD_CHANNELS", 4, "Vx, Vy, Vpx, Vpy")
+NOISE_MAX = Constant("GYRO_RES_NOISE_MAX", 1e3, "V: the most pick-off or drive noise per "
+                     "sample (the carriers are about 1 V)")
 
 RESONATOR_PARAMS = Struct(
     "GyroResonatorParams", "The resonator's parameters (ResonatorParameters in Python; SI "
@@ -69,7 +71,7 @@ RESONATOR_PARAMS = Struct(
           doc='first ring tone (off resonance)'),
     Field('ring_frequency_2', default=4260.0, unit='Hz',
           doc='second ring tone'),
-    Field('noise', default=0.0, unit='V', min=0.0,
+    Field('noise', default=0.0, unit='V', min=0.0, max=NOISE_MAX.value,
           doc='std of white noise on each pick-off sample'),
     Field('beta_x', default=0.0, unit='rad', min=-0.5, max=0.5,
           doc='x pick-off sensing axis tilted toward +y (non-orthogonality)'),
@@ -83,7 +85,7 @@ RESONATOR_PARAMS = Struct(
           doc='modal mass of the thermomechanical force noise (0 = no noise)'),
     Field('temperature', default=300.0, unit='K', min=0.0,
           doc='resonator temperature at the start of the run'),
-    Field('drive_noise', default=0.0, unit='V', min=0.0,
+    Field('drive_noise', default=0.0, unit='V', min=0.0, max=NOISE_MAX.value,
           doc='std of white noise on each held drive voltage sample'),
     Field('temperature_rate', default=0.0, unit='K/s',
           doc='temperature ramp during the run'),
@@ -222,6 +224,6 @@ DEMOD = Struct("GyroDemod", "A self-calibration record demodulated while it runs
     Field("worst_phase_error"), Field("sum_amplitude"), Field("gain_peak"), Field("sum_gain"),
     Field("pinned", _I64), Field("counted", _I64), Field("emitted", _I64)))
 
-CONSTANTS = (RES_N, RES_FORCED, DEMOD_ORDER, DEMOD_CHANNELS)
+CONSTANTS = (RES_N, RES_FORCED, DEMOD_ORDER, DEMOD_CHANNELS, NOISE_MAX)
 STRUCTS = (RESONATOR_PARAMS, RESONATOR_MAPS, RESONATOR, LOOP_SETTINGS, LOOP_GAINS, LOOP_STATE,
            LOOP_OUTPUTS, LOOPS, DEMOD)
