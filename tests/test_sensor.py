@@ -158,8 +158,11 @@ def test_twenty_gyros_that_are_not_presets_read_their_rate_within_their_sigma():
     """Random gyros (gyro_fmu.sensor.gyros: modes 2-8 kHz, splits 1-25 %, Q 300-1e4,
     couplings up to 15 %, masses 1e-9 to 1e-6 kg), each from design values 5-20 % off, at
     a constant 1 rad/s: over the last 0.1 s of 0.3 s, the output's mean error is within
-    4 of its stated sigmas and the status stays 0 (measured: RMS bias/sigma 1.09, worst
-    3.01 at seed 1; 1.01 / 1.79 and 0.81 / 1.68 at seeds 2 and 3)."""
+    4 of its stated sigmas, and the status is 0 from 10 ms on (measured: RMS bias/sigma
+    0.96, worst 2.58; before the covariance's noise of 0.4.0, 1.09 / 3.01 with status 0
+    throughout). The observer may flag its first milliseconds while it converges from
+    design values 20 % off: gyro 7 is status 1 at 3 and 4 ms (its innovations not yet
+    white), which is what the status is for."""
     from gyro_fmu.sensor.gyros import random_gyro, sensor_settings
 
     path = prebuilt_fmu("GyroSensor")
@@ -178,7 +181,7 @@ def test_twenty_gyros_that_are_not_presets_read_their_rate_within_their_sigma():
         late = r["time"] >= 0.2
         bias = float(np.mean(r["Omega_meas"][late] - 1.0))
         sigma = float(np.sqrt(np.mean(r["sigma_Omega_meas"][late] ** 2)))
-        assert np.all(r["status"] == 0), (i, settings)
+        assert np.all(r["status"][r["time"] >= 0.01] == 0), (i, settings)
         ratios.append(bias / sigma)
     assert np.max(np.abs(ratios)) <= 4.0, ratios
     assert 0.3 < np.sqrt(np.mean(np.square(ratios))) < 1.5, ratios  # honest, not inflated

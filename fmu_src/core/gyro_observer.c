@@ -193,6 +193,7 @@ int gyro_observer_init(GyroObserver *o, const GyroParams *guess, double Omega_z_
     o->peak[0] = sig[o->i0] * o->hgain[0];
     o->peak[1] = sig[o->i0 + 2] * o->hgain[1];
     o->nu2[0] = o->nu2[1] = -1.0;
+    o->nu2_zero[0] = o->nu2_zero[1] = o->nu2_mass = 0.0;
     o->refit.last_T = -1.0;
     return 0;
 }
@@ -373,6 +374,9 @@ static const char *restored_state_problem(const GyroObserver *o) {
     if (!(all_finite(o->peak, 2) && o->peak[0] >= 0.0 && o->peak[1] >= 0.0))
         return "signal peaks that are not finite and >= 0";
     if (!all_finite(o->nu2, 2)) return "innovation powers that are not finite";
+    if (!(all_finite(o->nu2_zero, 2) && o->nu2_zero[0] >= 0.0 && o->nu2_zero[1] >= 0.0 &&
+          o->nu2_mass >= 0.0 && o->nu2_mass <= 1.0))
+        return "innovation powers (the covariance's) that no run can have";
     for (int i = 0; i < n; i++)
         if (!(isfinite(o->x[i]) && all_finite(o->P[i], (size_t)n)))
             return "a combined estimate or covariance that is not finite";

@@ -7,39 +7,52 @@
  * mean square: an EWMA of time constant INNOV_TAU_START at first, whose memory then
  * grows as a plain mean's (t) until innov_tau. (An EWMA of a slow innov_tau started at
  * the first square stayed near that one sample: at 50 ms it lost a good gyro at 85 us.
- * A plain mean from the start slowed far noise-free starts: 30 % off, 20 ms, -3 rad/s.) */
-static double rel_R(GyroObserver *o, int j, double nu, double h) {
+ * A plain mean from the start slowed far noise-free starts: 30 % off, 20 ms, -3 rad/s.)
+ * That variance sets the gain. The covariance takes in the noise as *Rc, the larger of
+ * it and the same EWMA started from 0 and divided by the weight it has taken in (a plain
+ * mean of the first squares, not the first square alone: issue 44, the over-confidence
+ * of the first milliseconds that P kept). */
+static double rel_R(GyroObserver *o, int j, double nu, double w, double *Rc) {
     const GyroObserverTuning *tun = &o->tuning;
     const double v2 = nu * nu;
     double e = o->nu2[j];
-    const double w = dmax(dmin(h / tun->innov_tau, 1.0),
-                          dmin(h / (o->t + h), h / INNOV_TAU_START));
     e = e < 0.0 ? v2 : e + w * (v2 - e);
     o->nu2[j] = e;
+    o->nu2_zero[j] += w * (v2 - o->nu2_zero[j]);
     const double floor_ = tun->noise_rel * o->peak[j];
-    return dmax(floor_ * floor_, tun->innov_floor * e);
+    const double R = dmax(floor_ * floor_, tun->innov_floor * e);
+    const double mass = o->nu2_mass + w * (1.0 - o->nu2_mass);
+    *Rc = dmax(R, tun->innov_floor * o->nu2_zero[j] / mass);
+    return R;
 }
 
-/* Noise variances R of the measured pair at t and the innovations nu of the combined
- * prediction; updates the running peaks and the innovation EWMA (time base: h). */
+/* Noise variances of the measured pair at t, R (the gain's) and Rc (the covariance's),
+ * and the innovations nu of the combined prediction; updates the running peaks and the
+ * innovation EWMAs (time base: h). */
 void obs_noise_variances(GyroObserver *o, double z1, double z2, double h, double R[2],
-                            double nu[2]) {
+                         double Rc[2], double nu[2]) {
+    const GyroObserverTuning *tun = &o->tuning;
     const int i0 = o->i0;
     nu[0] = z1 - o->hgain[0] * o->x[i0];
     nu[1] = z2 - o->hgain[1] * o->x[i0 + 2];
     if (fabs(z1) > o->peak[0]) o->peak[0] = fabs(z1);
     if (fabs(z2) > o->peak[1]) o->peak[1] = fabs(z2);
-    R[0] = o->tuning.sigma_z1 > 0.0 ? o->tuning.sigma_z1 * o->tuning.sigma_z1
-                                     : rel_R(o, 0, nu[0], h);
-    R[1] = o->tuning.sigma_z2 > 0.0 ? o->tuning.sigma_z2 * o->tuning.sigma_z2
-                                     : rel_R(o, 1, nu[1], h);
+    const double w = dmax(dmin(h / tun->innov_tau, 1.0),
+                          dmin(h / (o->t + h), h / INNOV_TAU_START));
+    const double sigma[2] = {tun->sigma_z1, tun->sigma_z2};
+    for (int j = 0; j < 2; j++) {
+        if (sigma[j] > 0.0) R[j] = Rc[j] = sigma[j] * sigma[j];
+        else R[j] = rel_R(o, j, nu[j], w, &Rc[j]);
+    }
+    if (!(sigma[0] > 0.0 && sigma[1] > 0.0)) o->nu2_mass += w * (1.0 - o->nu2_mass);
 }
 
-/* Measurement update (eq. 8) of one filter's x, P in place: x += K (z - H x), P by Joseph
- * (symmetrized) or P - K H P. Returns the NIS of its innovation (2 dof; < 0: S singular,
+/* Measurement update (eq. 8) of one filter's x, P in place: x += K (z - H x), K from R,
+ * P by Joseph with Rc, (I - K H) P (I - K H)' + K Rc K' (symmetrized: the covariance of
+ * that gain's error when the noise is Rc), or P - K H P (the optimal gain's, Rc unused). Returns the NIS of its innovation (2 dof; < 0: S singular,
  * no update) and *logdet = log det S. */
 double obs_correct_with(const GyroObserver *o, double *x, double P[NMAX][NMAX], double z1,
-                           double z2, const double R[2], double *logdet) {
+                        double z2, const double R[2], const double Rc[2], double *logdet) {
     const int n = o->n, i0 = o->i0, i1 = i0 + 2;
     const double g0 = o->hgain[0], g1 = o->hgain[1];
     const double nu0 = z1 - g0 * x[i0], nu1 = z2 - g1 * x[i1];
@@ -73,7 +86,7 @@ double obs_correct_with(const GyroObserver *o, double *x, double P[NMAX][NMAX], 
         }
         for (int i = 0; i < n; i++) {
             const double m0 = M[i][i0] * g0, m1 = M[i][i1] * g1;
-            const double kr0 = K0[i] * R[0], kr1 = K1[i] * R[1];
+            const double kr0 = K0[i] * Rc[0], kr1 = K1[i] * Rc[1];
             for (int j = 0; j < NMAX; j++)
                 P[i][j] = (M[i][j] - (m0 * K0[j] + m1 * K1[j])) + (kr0 * K0[j] + kr1 * K1[j]);
         }

@@ -123,14 +123,14 @@ void gyro_observer_combine(const GyroObserver *o, const double *w, double *x,
  * when with_P (the split API's update, whose P the outputs read; in gyro_observer_step
  * the prediction's mixture replaces P before anything reads it, so it is not made). */
 void obs_imm_update(GyroObserver *o, double z1, double z2, double h, int with_P) {
-    double R[2], nu[2], ll[GYRO_OBS_MMAX];
-    obs_noise_variances(o, z1, z2, h, R, nu);
+    double R[2], Rc[2], nu[2], ll[GYRO_OBS_MMAX];
+    obs_noise_variances(o, z1, z2, h, R, Rc, nu);
     obs_monitor_innovations(o, nu, R);
     obs_refit_correct(o, nu, R, h);
     const int M = o->n_models;
     for (int j = 0; j < M; j++) {
         double logdet;
-        const double nis = obs_correct_with(o, o->xs[j], o->Ps[j], z1, z2, R, &logdet);
+        const double nis = obs_correct_with(o, o->xs[j], o->Ps[j], z1, z2, R, Rc, &logdet);
         ll[j] = nis >= 0.0 ? -0.5 * (nis + logdet) : 0.0;
     }
     if (M > 1) {

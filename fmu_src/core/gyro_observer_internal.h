@@ -111,9 +111,9 @@ const char *obs_held_restored(GyroObserver *o);
 
 /* gyro_observer_correct.c */
 void obs_noise_variances(GyroObserver *o, double z1, double z2, double h, double R[2],
-                         double nu[2]);
+                         double Rc[2], double nu[2]);
 double obs_correct_with(const GyroObserver *o, double *x, double P[NMAX][NMAX], double z1,
-                        double z2, const double R[2], double *logdet);
+                        double z2, const double R[2], const double Rc[2], double *logdet);
 int obs_innovation_covariance(const GyroObserver *o, const double R[2], double S[4]);
 void obs_monitor_innovations(GyroObserver *o, const double nu[2], const double R[2]);
 

@@ -33,7 +33,7 @@ from .observer_tuning import ObserverTuning
 __all__ = ["CoarseStepWarning", "GyroStateObserver", "ObserverDivergedError",
            "ObserverStepError", "ObserverTuning"]
 
-_STATE_VERSION = 4
+_STATE_VERSION = 5  # 5: nu2 holds the covariance's noise EWMA too (0.4.0)
 #: The held-step cache's watch fields a state keeps (its maps are rebuilt from them).
 _HELD_FIELDS = ("valid", "h", "xc", "steady", "tol")
 _REFIT_ARRAYS = ("W", "g", "F", "shift", "move")  #: the re-fit test's array fields
@@ -328,7 +328,8 @@ class GyroStateObserver:
             "rate_filters": {"x": self.xs.tolist(), "P": self.Ps.tolist(),
                              "mu": self.mu.tolist(), "c": self.c.tolist()},
             "peak": self.peak.tolist(),
-            "nu2": self._view("nu2").tolist(),
+            "nu2": [*self._view("nu2").tolist(), *self._view("nu2_zero").tolist(),  # gain's, P's
+                    float(self._c.nu2_mass)],
             "monitor": [*numbers, self.status, self.lost, bool(self._c.auto_prior)],
             "refit": {name: np.ctypeslib.as_array(getattr(self._c.refit, name)).tolist()
                       if name in _REFIT_ARRAYS else getattr(self._c.refit, name)
@@ -388,7 +389,8 @@ class GyroStateObserver:
         other.mu[:] = mu
         other.c[:] = cc
         other.peak[:] = np.array(state["peak"], dtype=float)
-        other._view("nu2")[:] = np.array(state["nu2"], dtype=float)
+        nu2 = np.array(state["nu2"], dtype=float).reshape(5)  # [gain's 2, P's 2, weight]
+        other._view("nu2")[:], other._view("nu2_zero")[:], c.nu2_mass = nu2[:2], nu2[2:4], nu2[4]
         m = c.mon
         for name, value in zip(("nis", "count", "status", "cause", "which", "value", "block",
                                 "last_nis", "last_rel"), mon[:9], strict=True):

@@ -154,7 +154,8 @@ class GyroStateObserver:
         # running peak |z1|, |z2|, from the prior's scale: R > 0 in relative noise mode
         i0 = self.measured_pair.state_rows[0]
         self.peak = sig[[i0, i0 + 2]] * self._model.hgain
-        self.nu2 = np.full(2, -1.0)  # EWMA of squared innovations (< 0: not started)
+        # EWMA of squared innovations (< 0: not started); [2:4] the same from 0, [4] its weight
+        self.nu2 = np.array([-1.0, -1.0, 0.0, 0.0, 0.0])
         self.mon = np.zeros(N_MON)  # divergence monitor (observer_kernels.M_*)
         self.t = 0.0  # s since construction
         self.status = 0  #: 0 ok, 1 warning (innovations above their band), 2 lost

@@ -208,22 +208,29 @@ def held_step(model, theta, Omega_z, s, ux, uy, h):  # pragma: no cover
 
 
 @njit(cache=True)
-def _rel_R(nu2, j, nu, peak, h, noise_rel, innov_floor, innov_tau):  # pragma: no cover
-    """Relative-mode noise variance: (noise_rel peak)^2, floored by the innovations."""
+def _rel_R(nu2, j, nu, peak, w, noise_rel, innov_floor):  # pragma: no cover
+    """Relative-mode noise variances (the gain's, the covariance's): (noise_rel peak)^2,
+    floored by the innovations' EWMA; the covariance's is the larger of that and the same
+    EWMA started from 0 over the weight it has taken in (nu2[2 + j] / nu2[4])."""
     v2 = nu * nu
     e = nu2[j]
-    e = v2 if e < 0.0 else e + min(h / innov_tau, 1.0) * (v2 - e)
+    e = v2 if e < 0.0 else e + w * (v2 - e)
     nu2[j] = e
-    return max((noise_rel * peak) ** 2, innov_floor * e)
+    nu2[2 + j] += w * (v2 - nu2[2 + j])
+    R = max((noise_rel * peak) ** 2, innov_floor * e)
+    mass = nu2[4] + w * (1.0 - nu2[4])
+    return R, max(R, innov_floor * nu2[2 + j] / mass)
 
 
 @njit(cache=True)
 def noise_variances(model, noise, x, peak, nu2, z1, z2, h):  # pragma: no cover
-    """Noise variances (R0, R1) of the measured pair at t and the innovations of x.
+    """Noise variances of the measured pair at t, the gain's (R0, R1) and the
+    covariance's (Rc0, Rc1), and the innovations of x.
 
-    x is the (combined) prediction; peak (running |z|) and nu2 (innovation EWMA, < 0
-    before the first) are updated for the relative noise mode; h (s) is the step that
-    follows, the EWMA's time base. Returns (R0, R1, nu0, nu1).
+    x is the (combined) prediction; peak (running |z|) and nu2 (the innovation EWMA, < 0
+    before the first, [2:4] the same started from 0, [4] the weight those took in) are
+    updated for the relative noise mode; h (s) is the step that follows, the EWMA's time
+    base. Returns (R0, R1, Rc0, Rc1, nu0, nu1).
     """
     i0 = model.i0
     nu0 = z1 - model.hgain[0] * x[i0]
@@ -232,21 +239,22 @@ def noise_variances(model, noise, x, peak, nu2, z1, z2, h):  # pragma: no cover
         peak[0] = abs(z1)
     if abs(z2) > peak[1]:
         peak[1] = abs(z2)
+    w = min(h / noise.innov_tau, 1.0)
     if noise.sigma_z1 > 0.0:
-        R0 = noise.sigma_z1 * noise.sigma_z1
+        R0 = Rc0 = noise.sigma_z1 * noise.sigma_z1
     else:
-        R0 = _rel_R(nu2, 0, nu0, peak[0], h, noise.noise_rel, noise.innov_floor,
-                    noise.innov_tau)
+        R0, Rc0 = _rel_R(nu2, 0, nu0, peak[0], w, noise.noise_rel, noise.innov_floor)
     if noise.sigma_z2 > 0.0:
-        R1 = noise.sigma_z2 * noise.sigma_z2
+        R1 = Rc1 = noise.sigma_z2 * noise.sigma_z2
     else:
-        R1 = _rel_R(nu2, 1, nu1, peak[1], h, noise.noise_rel, noise.innov_floor,
-                    noise.innov_tau)
-    return R0, R1, nu0, nu1
+        R1, Rc1 = _rel_R(nu2, 1, nu1, peak[1], w, noise.noise_rel, noise.innov_floor)
+    if not (noise.sigma_z1 > 0.0 and noise.sigma_z2 > 0.0):
+        nu2[4] += w * (1.0 - nu2[4])
+    return R0, R1, Rc0, Rc1, nu0, nu1
 
 
 @njit(cache=True)
-def correct_with(model, joseph, x, P, z1, z2, R0, R1):  # pragma: no cover
+def correct_with(model, joseph, x, P, z1, z2, R0, R1, Rc0, Rc1):  # pragma: no cover
     """Measurement update (eq. 8) of one filter's x, P in place, noise variances given.
 
     Returns (NIS, log det S) of its innovation nu = z - H x (S = H P H' + R, 2 dof): the
@@ -287,8 +295,8 @@ def correct_with(model, joseph, x, P, z1, z2, R0, R1):  # pragma: no cover
         for i in range(n):
             m0 = M[i, i0] * g0
             m1 = M[i, i1] * g1
-            kr0 = K[i, 0] * R0
-            kr1 = K[i, 1] * R1
+            kr0 = K[i, 0] * Rc0
+            kr1 = K[i, 1] * Rc1
             for j in range(n):
                 P[i, j] = (M[i, j] - (m0 * K[j, 0] + m1 * K[j, 1])) + (kr0 * K[j, 0]
                                                                        + kr1 * K[j, 1])

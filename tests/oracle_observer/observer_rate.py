@@ -214,12 +214,14 @@ def update(model, noise, xs, Ps, c, mu, x, P, peak, nu2, mon, z1, z2, h):  # pra
     """IMM correction at t: every filter corrected (eq. 8) with the noise variances of the
     combined prediction (x, P); model probabilities mu = c x likelihood, normalized
     (Bar-Shalom eq. 11.6.6-15 to -19); then x, P = the combined estimate."""
-    R0, R1, nu0, nu1 = kern.noise_variances(model, noise, x, peak, nu2, z1, z2, h)
+    R0, R1, Rc0, Rc1, nu0, nu1 = kern.noise_variances(model, noise, x, peak, nu2, z1, z2,
+                                                      h)
     kern.monitor_innovations(model, mon, P, nu0, nu1, R0, R1)
     M = xs.shape[0]
     ll = np.empty(M)
     for j in range(M):
-        nis, logdet = kern.correct_with(model, noise.joseph, xs[j], Ps[j], z1, z2, R0, R1)
+        nis, logdet = kern.correct_with(model, noise.joseph, xs[j], Ps[j], z1, z2, R0, R1,
+                                        Rc0, Rc1)
         ll[j] = -0.5 * (nis + logdet) if nis >= 0.0 else 0.0
     if M > 1:
         top = ll.max()

@@ -177,6 +177,9 @@ OBSERVER = Struct(
         Field("c", shape=(MMAX,), doc="... predicted to the next one"),
         Field("peak", shape=(2,), doc="running peak |z1|, |z2|"),
         Field("nu2", shape=(2,), doc="EWMA of squared innovations (< 0: not started)"),
+        Field("nu2_zero", shape=(2,), doc="the same EWMA started from 0 (its mean: divided "
+              "by nu2_mass), for the covariance's noise"),
+        Field("nu2_mass", doc="the total weight nu2_zero has taken in, 1 - prod(1 - w)"),
         Field("mon", MONITOR), Field("refit", REFIT),
         Field("t", unit="s", doc="since construction"),
         Field("held", HELD, doc="the held step's reusable maps (a cache: reset on restore)"),
