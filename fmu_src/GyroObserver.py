@@ -28,6 +28,7 @@ class GyroObserver(GyroSlave):
         tuning = dataclass_from_parameters(ObserverTuning, self)
         self.observer = GyroStateObserver(initial, self.Omega_z_0, int(self.measured_pair), tuning)
         self._warnings_logged = 0
+        self._drive_checked = False
         self._publish()
 
     def advance(self, t: float, h: float) -> None:
@@ -42,6 +43,17 @@ class GyroObserver(GyroSlave):
             self._outputs_not_a_number()
             self.status = 2.0
             raise
+        if not self._drive_checked:  # the tones, when told, judged at the first step
+            self._drive_checked = True
+            if self.f1 > 0.0 and self.f2 > 0.0:
+                from gyro_fmu.model.drive import TwoToneDrive, drive_warning
+                from gyro_fmu.model.parameters import GyroParameters
+
+                guess = GyroParameters(**{n: getattr(self, f"{n}_0") for n in PARAMETER_UNITS})
+                text = drive_warning(guess, TwoToneDrive(1.0, self.f1, 1.0, self.f2),
+                                     self.Omega_z_0, h, int(self.measured_pair))
+                if text:
+                    self.log(f"{self.modelName}: {text}", Fmi2Status.warning)
         if self.observer.status != self.status:
             if self.observer.status == 1 and self._warnings_logged < _MAX_WARNINGS:
                 self._warnings_logged += 1

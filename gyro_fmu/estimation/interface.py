@@ -88,6 +88,11 @@ OBSERVER = FmuInterface(
         Var("measured_pair", "parameter", 1, None,
             "measured signals used: 1 positions x, y; 2 velocities vx, vy",
             integer=True, min=1, max=2),
+        *(Var(f, "parameter", 0.0, "Hz",
+              f"the drive's tone {f[1]} (TwoToneDrive's {f}), if known: with both tones set, "
+              "the first step warns when they leave the rate weakly observable (their "
+              "Cramer-Rao bound on Omega_z over 40 ms more than twice that of tones around "
+              "the guessed modes); 0: not known, no check", min=0.0) for f in ("f1", "f2")),
         *dataclass_parameters(ObserverTuning),
         Var("ux", "input", 0.0, "N", "x-axis drive force, held over the step"),
         Var("uy", "input", 0.0, "N", "y-axis drive force, held over the step"),
@@ -116,7 +121,8 @@ OBSERVER = FmuInterface(
     ),
     doctor_check=({}, OUTPUTS),
     reference_inputs=_reference_inputs,
-    core_sources=("gyro_rng.c", "gyro_plant.c", *OBSERVER_SOURCES),
+    core_sources=("gyro_rng.c", "gyro_plant.c", *OBSERVER_SOURCES, "gyro_signals.c",
+                  "gyro_linalg.c", "gyro_excitation.c"),
     struct_copies=(StructCopy("guess_of", PARAMS, {"*": "{}_0"}),
                    StructCopy("tuning_of", TUNING)),
 )

@@ -8,6 +8,7 @@
 #include <stddef.h>
 #include <stdio.h>
 
+#include "gyro_excitation.h"
 #include "gyro_observer.h"
 #include "model.h"
 #include "variables.h"
@@ -22,6 +23,7 @@ typedef struct {
     GyroObserver observer;
     int32_t warnings_logged, restarts_logged;
     double coarse_h; /* the last step size warned of as coarse (0: none) */
+    int32_t drive_checked, reserved; /* the tones f1, f2 judged (at the first step) */
 } ModelData;
 
 /* guess_of and tuning_of (variables.h) fill GyroParams from kxx_0 .. m_0 and
@@ -54,8 +56,25 @@ static GyroHookStatus setup(void *data, double start_time, char *msg, size_t n) 
     d->warnings_logged = 0;
     d->restarts_logged = 0;
     d->coarse_h = 0.0;
+    d->drive_checked = 0;
     publish(d);
     return GYRO_HOOK_OK;
+}
+
+/* The drive's tones, when the host told them, judged once at the first step (its h is
+ * the sampling the bound needs): the warning of gyro_excitation.h, or "". */
+static int drive_warning(ModelData *d, double h, char *msg, size_t n) {
+    const Variables *v = &d->v;
+    d->drive_checked = 1;
+    if (!(v->f1 > 0.0 && v->f2 > 0.0)) return 0;
+    const GyroParams guess = guess_of(v);
+    const GyroTwoToneDrive tones = {1.0, v->f1, 1.0, v->f2}; /* the loss needs no amplitude */
+    char text[GYRO_OBS_MESSAGE];
+    if (!gyro_drive_warning(&guess, &tones, v->Omega_z_0, h, d->observer.pair, text,
+                            sizeof text))
+        return 0;
+    snprintf(msg, n, "GyroObserver: %s", text);
+    return 1;
 }
 
 static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) {
@@ -86,6 +105,7 @@ static GyroHookStatus step(void *data, double t, double h, char *msg, size_t n) 
     default: break;
     }
     publish(d);
+    if (!d->drive_checked && drive_warning(d, h, msg, n)) return GYRO_HOOK_WARNING;
     if (d->observer.refit.restarts > restarts && d->restarts_logged < MAX_RESTARTS_LOGGED) {
         char text[GYRO_OBS_MESSAGE];
         gyro_observer_restart_message(&d->observer, text, sizeof text);
