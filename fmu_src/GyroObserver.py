@@ -27,6 +27,7 @@ class GyroObserver(GyroSlave):
         initial = GyroParameters(**{n: getattr(self, f"{n}_0") for n in PARAMETER_UNITS})
         tuning = dataclass_from_parameters(ObserverTuning, self)
         self.observer = GyroStateObserver(initial, self.Omega_z_0, int(self.measured_pair), tuning)
+        self._guess = initial  # the drive check's, at the first step
         self._warnings_logged = 0
         self._drive_checked = False
         self._publish()
@@ -47,10 +48,8 @@ class GyroObserver(GyroSlave):
             self._drive_checked = True
             if self.f1 > 0.0 and self.f2 > 0.0:
                 from gyro_fmu.model.drive import TwoToneDrive, drive_warning
-                from gyro_fmu.model.parameters import GyroParameters
 
-                guess = GyroParameters(**{n: getattr(self, f"{n}_0") for n in PARAMETER_UNITS})
-                text = drive_warning(guess, TwoToneDrive(1.0, self.f1, 1.0, self.f2),
+                text = drive_warning(self._guess, TwoToneDrive(1.0, self.f1, 1.0, self.f2),
                                      self.Omega_z_0, h, int(self.measured_pair))
                 if text:
                     self.log(f"{self.modelName}: {text}", Fmi2Status.warning)
