@@ -102,6 +102,35 @@ def test_a_lost_filter_raises_a_named_error_and_refuses_every_later_step():
     assert other.status == 2 and other.lost == obs.lost
 
 
+def _break_covariance(obs: GyroStateObserver, diagonal: bool) -> None:
+    """Every rate model's P made indefinite: a negative variance of vx, or (diagonal False)
+    a correlation of x and y beyond 1 with every variance positive."""
+    for P in obs.Ps:
+        if diagonal:
+            P[1, 1] = -abs(P[1, 1])
+        else:
+            c = 3.0 * math.sqrt(P[0, 0] * P[2, 2])
+            P[0, 2] = P[2, 0] = c
+
+
+@pytest.mark.parametrize("rate_model", [0, 1])
+def test_a_broken_covariance_is_lost_within_one_block(rate_model):
+    """The whole Cholesky check runs when a block of corrections is judged (every 200
+    steps), the diagonal at every step (fmu_src/core/gyro_observer_monitor.c): a negative
+    variance is lost at the next step, an indefinite P with a positive diagonal within one
+    block."""
+    for diagonal, within in ((True, 1), (False, 200)):
+        obs = run(5e-6, 1000, tuning={"rate_model": rate_model})
+        assert obs.status == 0
+        _break_covariance(obs, diagonal)
+        steps = 0
+        with pytest.raises(ObserverDivergedError, match="lost positive definiteness"):
+            while steps < within:
+                steps += 1
+                obs.step(0.0, 0.0, 0.0, 0.0, 5e-6)
+        assert obs.status == 2 and steps <= within, (diagonal, steps)
+
+
 def test_noise_larger_than_told_is_a_warning_not_silence():
     """Absolute noise stds 10x too small: the block NIS (~200) leaves its chi-square band."""
     p = preset()

@@ -154,13 +154,27 @@ void obs_imm_update(GyroObserver *o, double z1, double z2, double h, int with_P)
 /* Propagate one filter's x, P to t + h linearized about xbar ((s1, Phi, S) its held step):
  * x[:4] -> s1 + Phi (x[:4] - xbar[:4]) + S (x[4:12] - xbar[4:12]), process noise q0 on x,
  * vx and q1 on y, vy; parameters a random walk of qpar per step; the rate block
- * x[IOM:] -> Fr x[IOM:] with noise Qr. P -> F P F' + Q (F's structure used), symmetrized. */
+ * x[IOM:] -> Fr x[IOM:] with noise Qr. P -> F P F' + Q, symmetrized.
+ * F's structure is used: F = [[Phi S], [0 I], [0 Fr]] by blocks (plant, parameters, rate;
+ * S reaches Omega_z too), so A = F P has new rows only for the plant and the rate block,
+ * and B = A F' only where a plant or rate row meets a plant or rate column: the
+ * parameters' block is P's, and a parameter row of B is a row of A (P is symmetric bit for
+ * bit, so A F' and (F P)' agree there to the bit). Every entry is the same sum, in the
+ * same order, as the full products (F P) F' symmetrized by halves: the bits of the
+ * unstructured propagation (tests/test_observer_oracle.py). */
+static inline double times_plant_row(const double *a, const double Phi[4], const double S[8]) {
+    double acc = 0.0; /* sum_c a[c] F[j][c] for a plant row j of F: Phi, then S */
+    for (int c = 0; c < 4; c++) acc += a[c] * Phi[c];
+    for (int c = 0; c < 8; c++) acc += a[4 + c] * S[c];
+    return acc;
+}
+
 static void predict_about(const GyroObserver *o, const double *xbar, const double s1[4],
                           const double Phi[4][4], const double S[4][8], double *x,
                           double P[NMAX][NMAX], const double Fr[][GYRO_OBS_RMAX],
                           const double Qr[][GYRO_OBS_RMAX], double q0, double q1) {
     const int n = o->n, r = n - IOM;
-    double d[12], om[GYRO_OBS_RMAX], A[NMAX][NMAX], At[NMAX][NMAX], Bt[NMAX][NMAX];
+    double d[12], om[GYRO_OBS_RMAX], A[4][NMAX], Ar[GYRO_OBS_RMAX][NMAX];
     for (int c = 0; c < 12; c++) d[c] = x[c] - xbar[c];
     for (int i = 0; i < 4; i++) {
         double acc = s1[i];
@@ -174,10 +188,9 @@ static void predict_about(const GyroObserver *o, const double *xbar, const doubl
         om[a] = acc;
     }
     for (int a = 0; a < r; a++) x[IOM + a] = om[a];
-    /* Every loop below runs its innermost index over a whole row of NMAX (a fixed length
-     * the compiler unrolls and vectorizes; it left runtime-length rows scalar) and keeps
-     * each sum's order over c, so the bits are those of the row-times-column products.
-     * Columns past n are computed and dropped. A = F P, row by row: */
+    /* A = F P, the plant's and the rate block's rows. The innermost index runs over a whole
+     * row of NMAX (a fixed length the compiler unrolls and vectorizes); columns past n are
+     * computed and not used. */
     for (int i = 0; i < 4; i++) {
         double acc[NMAX] = {0.0};
         for (int c = 0; c < 4; c++)
@@ -186,46 +199,65 @@ static void predict_about(const GyroObserver *o, const double *xbar, const doubl
             for (int k = 0; k < NMAX; k++) acc[k] += S[i][c] * P[4 + c][k];
         memcpy(A[i], acc, sizeof acc);
     }
-    for (int i = 4; i < IOM; i++) memcpy(A[i], P[i], sizeof A[i]);
     for (int a = 0; a < r; a++) {
         double acc[NMAX] = {0.0};
         for (int c = 0; c < r; c++)
             for (int k = 0; k < NMAX; k++) acc[k] += Fr[a][c] * P[IOM + c][k];
-        memcpy(A[IOM + a], acc, sizeof acc);
+        memcpy(Ar[a], acc, sizeof acc);
     }
-    for (int i = n; i < NMAX; i++) memset(A[i], 0, sizeof A[i]);
-    for (int c = 0; c < NMAX; c++) /* At = A' */
-        for (int i = 0; i < NMAX; i++) At[c][i] = A[i][c];
-    /* B = (F P) F', as its transpose: column j of B is sum_c F[j][c] (column c of A) */
-    for (int j = 0; j < 4; j++) {
-        double acc[NMAX] = {0.0};
-        for (int c = 0; c < 4; c++)
-            for (int i = 0; i < NMAX; i++) acc[i] += At[c][i] * Phi[j][c];
-        for (int c = 0; c < 8; c++)
-            for (int i = 0; i < NMAX; i++) acc[i] += At[4 + c][i] * S[j][c];
-        memcpy(Bt[j], acc, sizeof acc);
-    }
-    for (int j = 4; j < IOM; j++) memcpy(Bt[j], At[j], sizeof Bt[j]);
-    for (int a = 0; a < r; a++) {
-        double acc[NMAX] = {0.0};
-        for (int c = 0; c < r; c++)
-            for (int i = 0; i < NMAX; i++) acc[i] += At[IOM + c][i] * Fr[a][c];
-        memcpy(Bt[IOM + a], acc, sizeof acc);
-    }
-    Bt[0][0] += q0;
-    Bt[1][1] += q0;
-    Bt[2][2] += q1;
-    Bt[3][3] += q1;
-    for (int i = IPAR; i < IOM; i++) Bt[i][i] += o->qpar;
-    for (int a = 0; a < r; a++) /* B[IOM + a][IOM + c] is Bt[IOM + c][IOM + a] */
-        for (int c = 0; c < r; c++) Bt[IOM + c][IOM + a] += Qr[a][c];
-    for (int i = 0; i < n; i++) {
-        P[i][i] = Bt[i][i];
+    /* B = A F' where a plant or rate row meets a plant or rate column (both halves of each
+     * symmetric pair: they differ in their last bits), the process noise on its diagonal */
+    double Bpp[4][4], Brp[GYRO_OBS_RMAX][4], Bpr[4][GYRO_OBS_RMAX];
+    double Brr[GYRO_OBS_RMAX][GYRO_OBS_RMAX];
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++) Bpp[i][j] = times_plant_row(A[i], Phi[j], S[j]);
+    for (int a = 0; a < r; a++)
+        for (int j = 0; j < 4; j++) Brp[a][j] = times_plant_row(Ar[a], Phi[j], S[j]);
+    for (int j = 0; j < 4; j++)
+        for (int a = 0; a < r; a++) {
+            double acc = 0.0;
+            for (int c = 0; c < r; c++) acc += A[j][IOM + c] * Fr[a][c];
+            Bpr[j][a] = acc;
+        }
+    for (int a = 0; a < r; a++)
+        for (int b = 0; b < r; b++) {
+            double acc = 0.0;
+            for (int c = 0; c < r; c++) acc += Ar[a][IOM + c] * Fr[b][c];
+            Brr[a][b] = acc + Qr[a][b];
+        }
+    const double q[4] = {q0, q0, q1, q1};
+    for (int i = 0; i < 4; i++) { /* plant x plant */
+        P[i][i] = Bpp[i][i] + q[i];
         for (int j = 0; j < i; j++) {
-            const double v = 0.5 * (Bt[j][i] + Bt[i][j]);
+            const double v = 0.5 * (Bpp[j][i] + Bpp[i][j]);
             P[i][j] = v;
             P[j][i] = v;
         }
+    }
+    for (int i = IPAR; i < IOM; i++) { /* parameter x plant: A's; the parameters' own: P's */
+        for (int j = 0; j < 4; j++) {
+            P[i][j] = A[j][i];
+            P[j][i] = A[j][i];
+        }
+        P[i][i] += o->qpar;
+    }
+    for (int a = 0; a < r; a++) { /* rate x (plant, parameters, rate) */
+        const int i = IOM + a;
+        for (int j = 0; j < 4; j++) {
+            const double v = 0.5 * (Brp[a][j] + Bpr[j][a]);
+            P[i][j] = v;
+            P[j][i] = v;
+        }
+        for (int k = IPAR; k < IOM; k++) {
+            P[i][k] = Ar[a][k];
+            P[k][i] = Ar[a][k];
+        }
+        for (int b = 0; b < a; b++) {
+            const double v = 0.5 * (Brr[b][a] + Brr[a][b]);
+            P[i][IOM + b] = v;
+            P[IOM + b][i] = v;
+        }
+        P[i][i] = Brr[a][a];
     }
 }
 
