@@ -330,7 +330,7 @@ class GyroStateObserver:
             "peak": self.peak.tolist(),
             "nu2": [*self._view("nu2").tolist(), *self._view("nu2_zero").tolist(),  # gain's, P's
                     float(self._c.nu2_mass)],
-            "monitor": [*numbers, self.status, self.lost, bool(self._c.auto_prior)],
+            "monitor": [*numbers, self.status, self.lost, int(self._c.auto_prior)],
             "refit": {name: np.ctypeslib.as_array(getattr(self._c.refit, name)).tolist()
                       if name in _REFIT_ARRAYS else getattr(self._c.refit, name)
                       for name, _ in type(self._c.refit)._fields_},
@@ -401,7 +401,11 @@ class GyroStateObserver:
         lost = mon[N_MON + 1]
         c.lost = int(lost is not None)
         c.lost_message = (lost or "").encode()[:1023]
-        c.auto_prior = int(bool(mon[N_MON + 2]))
+        auto_prior = mon[N_MON + 2]
+        if auto_prior not in (0, 1, 2):  # 2: started by an untold noise, the drive's to come
+            raise ValueError(f"observer state monitor auto_prior {auto_prior!r}: expected 0, 1 "
+                             "or 2")
+        c.auto_prior = int(auto_prior)
         refit = state.get("refit")
         if not isinstance(refit, dict) or set(refit) != {f for f, _ in type(c.refit)._fields_}:
             raise ValueError(f"observer state refit {refit!r}: expected the re-fit test's "

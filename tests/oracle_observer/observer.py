@@ -131,7 +131,7 @@ class GyroStateObserver:
         xhat = np.zeros(self.n)
         xhat[I_OM] = Omega_z_0
         sig = np.zeros(self.n)
-        self._auto_prior = tun.sigma0_position <= 0.0 or tun.sigma0_velocity <= 0.0
+        self._auto_prior = int(tun.sigma0_position <= 0.0 or tun.sigma0_velocity <= 0.0)
         if not self._auto_prior:
             sig[[0, 2]] = tun.sigma0_position
             sig[1] = tun.sigma0_velocity / wx
@@ -246,14 +246,15 @@ class GyroStateObserver:
             self._set_h(h)
         pv = pk0 = pk1 = 0.0  # a prior started by the drive, applied before the predict
         if self._auto_prior:  # as update() then predict() start it
-            self._start_prior(0.0, 0.0, z1, z2)
+            if self._auto_prior == 1:
+                self._start_prior(0.0, 0.0, z1, z2)
             if self._auto_prior:
                 size = self._prior_size(ux, uy, 0.0, 0.0)
                 if size > 0.0:
                     g = self._model.hgain
                     q = PRIOR_FRACTION * size
                     pv, pk0, pk1 = q * q, size * g[0], size * g[1]
-                    self._auto_prior = False
+                    self._auto_prior = 0
         code = _ekf_step(self._model_t, self._noise_t, self._lim, self.xs, self.Ps, self.c,
                          self.mu, self.xhat, self.P, self._L, self.peak, self.nu2, self.mon,
                          self._Fr, self._Qr, self._Pi, self._qpar, float(ux), float(uy),
@@ -275,16 +276,19 @@ class GyroStateObserver:
         drive or measurement above its noise (3 sigma_z; any nonzero one in relative noise
         mode), then 1-sigma = PRIOR_FRACTION of the static deflection b |u| / k of the
         guess (drive) or PRIOR_FRACTION_MEASURED of the measured displacement, in m, and
-        that times the guessed natural frequency for the velocities."""
+        that times the guessed natural frequency for the velocities. A measurement whose
+        noise was not told may be that noise: the drive's prior still follows (2)."""
         size = self._prior_size(ux, uy, z1, z2)
         if not size > 0.0:
             return
         np.maximum(self.peak, size * self._model.hgain, out=self.peak)
-        size *= PRIOR_FRACTION if (ux or uy) else PRIOR_FRACTION_MEASURED
+        driven = bool(ux or uy)
+        size *= PRIOR_FRACTION if driven else PRIOR_FRACTION_MEASURED
         for i in range(4):  # filter units: m for all four (velocities scaled by 1/w)
             self.P[i, i] += size * size
             self.Ps[:, i, i] += size * size
-        self._auto_prior = False
+        told = self.tuning.sigma_z1 > 0.0 and self.tuning.sigma_z2 > 0.0
+        self._auto_prior = 2 if not driven and self._auto_prior == 1 and not told else 0
 
     def _verdict(self, code: int, h: float) -> None:
         """Act on a monitor verdict: status 0/1, or lost: the filter refuses from now on."""
@@ -309,7 +313,7 @@ class GyroStateObserver:
         self._check_finite(z1=z1, z2=z2)
         if self.lost is not None:
             raise ObserverDivergedError(self.lost)
-        if self._auto_prior:
+        if self._auto_prior == 1:
             self._start_prior(0.0, 0.0, z1, z2)
         rate.update(self._model, self._noise, self.xs, self.Ps, self.c, self.mu, self.xhat,
                     self.P, self.peak, self.nu2, self.mon, float(z1), float(z2), float(h))
@@ -448,5 +452,5 @@ class GyroStateObserver:
             raise ValueError(f"observer state monitor {mon!r}: expected a list of {N_MON + 3}")
         self.mon = np.array(mon[:N_MON], dtype=float)
         self.status, self.lost, self._auto_prior = int(mon[N_MON]), mon[N_MON + 1], \
-            bool(mon[N_MON + 2])
+            int(mon[N_MON + 2])
         self.t = float(state["t"])
