@@ -55,6 +55,7 @@ SUITES: dict[str, dict[str, list[str] | None]] = {
         "noise_consistency": ["--stop-time", "0.05", "--seeds", "2"],
         "tracking_bound": None,
         "sensor_seed_spread": None,
+        "sensor_sway": ["--amplitudes", "0.05", "--seconds", "0.2", "--seeds", "1"],
         "robustness": None,
         "engines": None,
         "selfcal_accuracy": None,
