@@ -199,3 +199,37 @@ def test_the_held_steps_table_is_the_factorials_quotient() -> None:
         for m in range(24):
             assert lib.gyro_observer_beta(j, m) == f[j] * f[m] / f[j + m + 1], (j, m)
     assert lib.gyro_observer_beta(24, 0) == lib.gyro_observer_beta(0, -1) == -1.0
+
+
+def test_the_partial_covariance_is_the_whole_mixtures_bits() -> None:
+    """After a step with the adaptive set the core keeps only the diagonal of P and the
+    measured rows' columns (gyro_observer_imm.c, combine_partial); the rest is made on
+    reading. Every step of 2 ms of the default gyro: those entries, as the step left them,
+    are the whole mixture's (gyro_observer_combine of the filters with the predicted c)
+    bit for bit, and so is P made whole. (The oracle test above compares P read through
+    the library, so made whole, with the numba observer's full P.)"""
+    import ctypes
+
+    p = PRESETS["park-horowitz"]
+    obs = GyroStateObserver(GyroParameters(**default_initial_guess(p)), 0.0, 1,
+                            ObserverTuning())
+    plant = GyroPlantModel(p, MeasurementNoise(x=1e-13, y=1e-13), 3)
+    h, n, i0 = 5e-6, obs.n, obs.c_struct.i0
+    raw = np.ctypeslib.as_array(obs.c_struct.P)[:n, :n]  # the struct's P, not made whole
+    for k in range(400):
+        ux = 1e-7 * math.sin(2 * math.pi * 4000 * k * h)
+        z = plant.output_row()
+        obs.step(ux, 0.0, z[0], z[2], h)
+        plant.step(ux, 0.0, 1.0, h)
+        partial = bool(obs.c_struct.P_partial)
+        kept = [raw.diagonal().copy(), raw[:, i0].copy(), raw[:, i0 + 2].copy()]
+        x, P = np.zeros(14), np.zeros((14, 14))
+        ptr = ctypes.POINTER(ctypes.c_double)
+        obs._lib.gyro_observer_combine(ctypes.byref(obs.c_struct),
+                                       obs.c.ctypes.data_as(ptr), x.ctypes.data_as(ptr),
+                                       P.ctypes.data_as(ptr))
+        P = P[:n, :n]
+        assert np.array_equal(kept[0], P.diagonal()), k
+        assert np.array_equal(kept[1], P[:, i0]) and np.array_equal(kept[2], P[:, i0 + 2]), k
+        assert np.array_equal(obs.P, P), k  # made whole on reading
+        assert partial or k % 200 == 199, k  # whole only where the monitor needed it

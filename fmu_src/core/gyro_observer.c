@@ -406,7 +406,8 @@ static const char *restored_state_problem(const GyroObserver *o) {
     if (!all_finite(&r->W[0][0], sizeof *r / sizeof(double))) return "re-fit numbers not finite";
     if (!(r->restarts >= 0.0 && r->restarts <= 1e9 && r->weight >= 0.0))
         return "a re-fit count out of its range";
-    if (o->status < 0 || o->status > 2 || (o->lost != 0 && o->lost != 1))
+    if (o->status < 0 || o->status > 2 || (o->lost != 0 && o->lost != 1) ||
+        (o->P_partial != 0 && o->P_partial != 1))
         return "an unknown status";
     if (o->auto_prior < 0 || o->auto_prior > 2) return "an auto prior state not 0, 1 or 2";
     if (!memchr(o->lost_message, '\0', sizeof o->lost_message)) return "an unterminated message";

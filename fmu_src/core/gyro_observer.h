@@ -119,6 +119,13 @@ void gyro_observer_mix(GyroObserver *o);
 void gyro_observer_combine(const GyroObserver *o, const double *w, double *x,
                            double P[GYRO_OBS_NMAX][GYRO_OBS_NMAX]);
 
+/* After a prediction with more than one rate model, P holds only what the step reads (its
+ * diagonal and the measured rows' columns; P_partial 1). This fills the rest, the mixture
+ * of the filters with the predicted probabilities c, the same bits as made whole at the
+ * prediction. The monitor calls it before its Cholesky check and a restart; a host that
+ * reads all of P calls it first (the library's GyroStateObserver.P does). */
+void gyro_observer_complete_covariance(GyroObserver *o);
+
 /* Auto prior started by the drive: 1-sigma of [x, y] as this fraction of the static
  * deflection b |u| / k of the guess. */
 extern const double gyro_observer_prior_fraction;

@@ -45,6 +45,44 @@ static void combine(const GyroObserver *o, const double xs[][NMAX],
     }
 }
 
+/* x and the entries of P the step reads between predictions: the diagonal (the sigmas)
+ * and the columns of the measured rows i0, i1 (the innovations' covariance and the re-fit
+ * test's gain), each the same sum as combine's, so the same bits. The rest waits for
+ * gyro_observer_complete_covariance (o->P_partial). */
+static void combine_partial(const GyroObserver *o, const double xs[][NMAX],
+                            const double Ps[][NMAX][NMAX], const double *w, double *x,
+                            double P[NMAX][NMAX]) {
+    const int M = o->n_models, n = o->n, i0 = o->i0, i1 = o->i0 + 2;
+    mixture_mean(o, xs, w, x);
+    double d[GYRO_OBS_MMAX][NMAX] = {{0.0}};
+    for (int j = 0; j < M; j++)
+        for (int a = 0; a < n; a++) d[j][a] = xs[j][a] - x[a];
+    /* the measured rows over all NMAX columns (Ps_j symmetric to the bit, so row i0 is
+     * column i0: contiguous, vectorized), and the diagonal */
+    double r0[NMAX] = {0.0}, r1[NMAX] = {0.0}, dg[NMAX] = {0.0};
+    for (int j = 0; j < M; j++) {
+        const double wj = w[j], d0 = d[j][i0], d1 = d[j][i1], *dj = d[j];
+        const double *P0 = Ps[j][i0], *P1 = Ps[j][i1];
+        for (int a = 0; a < NMAX; a++) {
+            r0[a] += wj * (P0[a] + dj[a] * d0);
+            r1[a] += wj * (P1[a] + dj[a] * d1);
+        }
+        for (int a = 0; a < n; a++) dg[a] += wj * (Ps[j][a][a] + dj[a] * dj[a]);
+    }
+    for (int a = 0; a < n; a++) {
+        P[a][i0] = P[i0][a] = r0[a];
+        P[a][i1] = P[i1][a] = r1[a];
+        P[a][a] = dg[a];
+    }
+}
+
+void gyro_observer_complete_covariance(GyroObserver *o) {
+    if (!o->P_partial) return;
+    combine(o, (const double(*)[NMAX])o->xs, (const double(*)[NMAX][NMAX])o->Ps, o->c, o->x,
+            o->P);
+    o->P_partial = 0;
+}
+
 /* 1 when Pi is the uniform switching matrix obs_set_rates builds (stay = Pi[j][j] on the
  * diagonal, leave = Pi[i][j] off it, for every i, j). */
 static int uniform_switching(const GyroObserver *o, double *stay, double *leave) {
@@ -144,10 +182,11 @@ void obs_imm_update(GyroObserver *o, double z1, double z2, double h, int with_P)
     } else {
         o->mu[0] = 1.0;
     }
-    if (with_P)
+    if (with_P) {
         combine(o, (const double(*)[NMAX])o->xs, (const double(*)[NMAX][NMAX])o->Ps, o->mu,
                 o->x, o->P);
-    else
+        o->P_partial = 0;
+    } else
         mixture_mean(o, (const double(*)[NMAX])o->xs, o->mu, o->x);
 }
 
@@ -275,6 +314,14 @@ void obs_imm_predict(GyroObserver *o, double ux, double uy, double h) {
         predict_about(o, xbar, s1, Phi, S, o->xs[j], o->Ps[j],
                       (const double(*)[GYRO_OBS_RMAX])o->Fr[j],
                       (const double(*)[GYRO_OBS_RMAX])o->Qr[j], a0 * a0, a1 * a1);
-    combine(o, (const double(*)[NMAX])o->xs, (const double(*)[NMAX][NMAX])o->Ps, o->c, o->x,
-            o->P);
+    /* the combined P: only what the next correction and the outputs read (the whole of it
+     * is made where it is read: gyro_observer_complete_covariance) */
+    if (o->n_models > 1) {
+        combine_partial(o, (const double(*)[NMAX])o->xs, (const double(*)[NMAX][NMAX])o->Ps,
+                        o->c, o->x, o->P);
+        o->P_partial = 1;
+    } else {
+        combine(o, (const double(*)[NMAX])o->xs, (const double(*)[NMAX][NMAX])o->Ps, o->c,
+                o->x, o->P);
+    }
 }

@@ -57,9 +57,11 @@ int obs_monitor_check(GyroObserver *o) {
      * otherwise (a restored state) is lost within one block (test_observer_soundness). */
     for (int i = 0; i < n; i++)
         if (!(o->P[i][i] >= 0.0)) return lost_verdict(m, GYRO_MON_NOT_SPD, -1, 0.0);
-    if ((m->count >= lim->block || m->count == 0.0) &&
-        !gyro_observer_cholesky_ok(&o->P[0][0], n))
-        return lost_verdict(m, GYRO_MON_NOT_SPD, -1, 0.0);
+    if (m->count >= lim->block || m->count == 0.0) {
+        gyro_observer_complete_covariance(o);
+        if (!gyro_observer_cholesky_ok(&o->P[0][0], n))
+            return lost_verdict(m, GYRO_MON_NOT_SPD, -1, 0.0);
+    }
     double th[GYRO_OBS_NPAR];
     for (int i = 0; i < GYRO_OBS_NPAR; i++) th[i] = o->theta0[i] + o->scale[i] * x[IPAR + i];
     static const int positive[3] = {0, 1, 6}; /* kxx, kyy, 1/m: within a factor of the guess */

@@ -61,6 +61,7 @@ void obs_refit_predict(GyroObserver *o, const double Phi[4][4], const double S[4
  * afresh. */
 void obs_refit_restart(GyroObserver *o) {
     GyroRefit *r = &o->refit;
+    gyro_observer_complete_covariance(o); /* P as a whole, before the move is added */
     for (int j = 0; j < o->n_models; j++)
         for (int a = 0; a < 8; a++)
             for (int b = 0; b < 8; b++) o->Ps[j][IPAR + a][IPAR + b] += r->move[a] * r->move[b];

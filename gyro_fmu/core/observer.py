@@ -55,6 +55,7 @@ FUNCTIONS = {
     "gyro_observer_beta": (_D, [c_int, c_int]),
     "gyro_observer_mix": (None, [_O]),
     "gyro_observer_combine": (None, [_O, _DP, _DP, _DP]),
+    "gyro_observer_complete_covariance": (None, [_O]),
     # the standard system in one C loop (gyro_chain.h): drive, rate, plant, observer
     "gyro_chain_run": (ctypes.c_int64, [POINTER(TwoToneDrive), POINTER(RateProfile),
                                         ctypes.c_void_p, _O, c_int, _D, ctypes.c_int64, _DP,

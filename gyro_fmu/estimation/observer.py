@@ -41,8 +41,7 @@ N_PAR = cobs.NPAR  #: kxx, kyy, kxy, dxx, dyy, dxy, b = 1/m
 I_PAR = cobs.IPAR  #: filter-state row of the first parameter
 I_OM = cobs.IOM  #: filter-state row of Omega_z
 N_MON = 16  #: numbers of the monitor in get_state() (core.observer.Monitor's fields)
-#: Outputs of output_row(): state estimate, UNKNOWNS, their 1-sigmas.
-N_OUTPUTS = 4 + 8 + 8
+N_OUTPUTS = 4 + 8 + 8  #: outputs of output_row(): state estimate, UNKNOWNS, their 1-sigmas
 _P = ctypes.POINTER(ctypes.c_double)
 
 
@@ -122,7 +121,8 @@ class GyroStateObserver:
 
     @property
     def P(self) -> np.ndarray:
-        """Its covariance (n x n view)."""
+        """Its covariance (n x n view), made whole first (a step keeps what the next reads)."""
+        self._lib.gyro_observer_complete_covariance(ctypes.byref(self._c))
         return self._view("P", self.n, self.n)
 
     @property

@@ -159,6 +159,8 @@ OBSERVER = Struct(
         Field("auto_prior", _I, doc="the prior of [x, vx, y, vy] waits for the first signal"),
         Field("status", _I, doc="0 ok, 1 warning, 2 lost"),
         Field("lost", _I, doc="1: lost (message in lost_message); every step refuses"),
+        Field("P_partial", _I, doc="1: P holds only its diagonal and the measured rows' "
+              "columns (gyro_observer_complete_covariance fills the rest)"),
         Field("theta0", shape=(NPAR,)), Field("scale", shape=(NPAR,)),
         Field("wx", unit="rad/s", doc="sqrt(kxx_0)"), Field("wy", unit="rad/s",
                                                              doc="sqrt(kyy_0)"),
