@@ -343,3 +343,22 @@ def test_an_aliasing_step_is_a_warning_from_the_fmu(version: int) -> None:
     run.run(np.full(3, 2e-6), ["Omega_z"], start_time=1.5e-5)
     assert len([m for s, m in run.messages if s == 1]) == 1  # 2 us carries 150 kHz
     run.close()
+
+
+def test_the_sources_built_are_those_beside_the_imported_package(monkeypatch, tmp_path) -> None:
+    """sources_root prefers the fmu_src/ of the checkout (or the installation) that
+    gyro_fmu was imported from over what the import system maps gyro_fmu.fmu_src to: an
+    editable install maps it to its own checkout, and a git worktree imported first built
+    the first checkout's C sources (an A/B of this session's was wrong by it)."""
+    import importlib.machinery
+    import importlib.util
+
+    from gyro_fmu.fmu import sources
+
+    (tmp_path / "fmu_src" / "core").mkdir(parents=True)  # another checkout's sources
+
+    elsewhere = importlib.machinery.ModuleSpec("gyro_fmu.fmu_src", None, is_package=True)
+    elsewhere.submodule_search_locations = [str(tmp_path / "fmu_src")]
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name: elsewhere)
+    assert sources.sources_root() == sources.REPO_SOURCES
+    assert (sources.REPO_SOURCES / "core" / "gyro_observer.c").is_file()

@@ -10,9 +10,15 @@ REPO_SOURCES = Path(__file__).resolve().parents[2] / "fmu_src"
 
 
 def sources_root() -> Path:
-    """fmu_src/ of a checkout, or gyro_fmu/fmu_src of an installation."""
+    """The fmu_src/ beside the imported gyro_fmu: gyro_fmu/fmu_src of an installation, or
+    fmu_src/ of the checkout it was imported from. Only then what the import system maps
+    gyro_fmu.fmu_src to: an editable install maps it to its own checkout, so a second
+    checkout (a git worktree) imported first compiled the first one's C sources."""
     from importlib.util import find_spec
 
+    for root in (Path(__file__).resolve().parents[1] / "fmu_src", REPO_SOURCES):
+        if (root / "core").is_dir():
+            return root
     spec = find_spec("gyro_fmu.fmu_src")
     if spec is not None and spec.submodule_search_locations:
         root = Path(next(iter(spec.submodule_search_locations)))
