@@ -216,7 +216,7 @@ static double prior_size(const GyroObserver *o, double ux, double uy, double z1,
  * (drive) or PRIOR_FRACTION_MEASURED of the measured displacement. A measurement whose
  * noise was not told may be that noise (any nonzero value starts it): the drive's prior
  * is then still added at the first drive (auto_prior 2). Started by the first sample's
- * noise alone (1e-12 m where the drive's is 1e-10 m), the state was known so well that
+ * noise alone (1e-12 m where the drive's is 6e-12 m), the state was known so well that
  * the first milliseconds' linearization error stayed: issue 44, a 12 kHz gyro started at
  * its true parameters ended 7.5 sigma off with status 0; the drive's prior: 0.6 sigma. */
 static void start_prior(GyroObserver *o, double ux, double uy, double z1, double z2) {
