@@ -197,10 +197,10 @@ void obs_imm_update(GyroObserver *o, double z1, double z2, double h, int with_P)
  * F's structure is used: F = [[Phi S], [0 I], [0 Fr]] by blocks (plant, parameters, rate;
  * S reaches Omega_z too), so A = F P has new rows only for the plant and the rate block,
  * and B = A F' only where a plant or rate row meets a plant or rate column: the
- * parameters' block is P's, and a parameter row of B is a row of A (P is symmetric bit for
- * bit, so A F' and (F P)' agree there to the bit). Every entry is the same sum, in the
- * same order, as the full products (F P) F' symmetrized by halves: the bits of the
- * unstructured propagation (tests/test_observer_oracle.py). */
+ * parameters' block is P's, and a parameter row of B is a column of A (P is symmetric bit
+ * for bit, so A F' and (F P)' agree there to the bit). Every entry is the same sum, in
+ * the same order, as the full products (F P) F' symmetrized by halves: the bits of the
+ * unstructured propagation (tests/test_native_observer.py, against the numba oracle). */
 static inline double times_plant_row(const double *a, const double Phi[4], const double S[8]) {
     double acc = 0.0; /* sum_c a[c] F[j][c] for a plant row j of F: Phi, then S */
     for (int c = 0; c < 4; c++) acc += a[c] * Phi[c];
