@@ -142,6 +142,11 @@ def test_get_state_and_set_state_round_trip_in_the_core() -> None:
     ra = rows_of(a, steps[150:], ux[150:], z1[150:], z2[150:])
     rb = rows_of(b, steps[150:], ux[150:], z1[150:], z2[150:])
     assert np.array_equal(ra, rb)
+    state = a.get_state()
+    for bad in (-1, 3, "x"):  # the auto prior's state: 0, 1 or 2 (2: the drive's to come)
+        state["monitor"][-1] = bad
+        with pytest.raises(ValueError, match="auto prior's state 0, 1 or 2"):
+            GyroStateObserver(PRESETS["park-horowitz"], 0.3, 1, tun).set_state(state)
 
 
 def fmu_rows(version: int, guess: GyroParameters, tun: ObserverTuning, pair: int, steps,

@@ -69,13 +69,8 @@ class GyroStateObserver:
     #: The unknowns, in the order of estimates() and sigmas() (model.measurement.UNKNOWNS).
     ESTIMATED: tuple[str, ...] = UNKNOWNS
 
-    def __init__(
-        self,
-        initial: GyroParameters,
-        Omega_z_0: float = 0.0,
-        measured_pair: int = 1,
-        tuning: ObserverTuning | None = None,
-    ) -> None:
+    def __init__(self, initial: GyroParameters, Omega_z_0: float = 0.0, measured_pair: int = 1,
+                 tuning: ObserverTuning | None = None) -> None:
         pair = MeasuredPair.of(measured_pair)
         if not isinstance(initial, GyroParameters):
             raise ValueError(
@@ -378,8 +373,9 @@ class GyroStateObserver:
                 f"expected ({M}, {n}), ({M}, {n}, {n}), ({M},) for its rate models"
             )
         mon = state["monitor"]
-        if not (isinstance(mon, list) and len(mon) == N_MON + 3):
-            raise ValueError(f"observer state monitor {mon!r}: expected a list of {N_MON + 3}")
+        if not (isinstance(mon, list) and len(mon) == N_MON + 3 and mon[-1] in (0, 1, 2)):
+            raise ValueError(f"observer state monitor {mon!r}: expected a list of {N_MON + 3}, "
+                             "the last the auto prior's state 0, 1 or 2")
         other._lib.gyro_observer_set_scaling(other._ref, float(state["wx"]), float(state["wy"]),
                                              _ptr(theta0), _ptr(scale))
         other.xhat[:] = xhat
@@ -401,7 +397,7 @@ class GyroStateObserver:
         lost = mon[N_MON + 1]
         c.lost = int(lost is not None)
         c.lost_message = (lost or "").encode()[:1023]
-        c.auto_prior = mon[N_MON + 2] if mon[N_MON + 2] in (0, 1, 2) else -1  # C refuses -1
+        c.auto_prior = int(mon[N_MON + 2])
         refit = state.get("refit")
         if not isinstance(refit, dict) or set(refit) != {f for f, _ in type(c.refit)._fields_}:
             raise ValueError(f"observer state refit {refit!r}: expected the re-fit test's "
