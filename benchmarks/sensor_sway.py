@@ -19,31 +19,13 @@ import warnings
 
 import numpy as np
 
-from gyro_fmu.estimation.observer import GyroStateObserver
-from gyro_fmu.estimation.observer_tuning import ObserverTuning
-from gyro_fmu.model.drive import TwoToneDrive
-from gyro_fmu.model.parameters import PARAMETER_UNITS, GyroParameters
-from gyro_fmu.model.plant import GyroPlantModel, MeasurementNoise
-from gyro_fmu.sensor.inprocess import defaults, internal_step
-from gyro_fmu.sensor.interface import NOISE_STEP
-
-INTEGERS = ("rate_model", "omega_order", "joseph")
+from gyro_fmu.sensor.inprocess import chain_parts
 
 
 def one_run(settings: dict, amplitude: float, frequency: float, seconds: float,
             seed: int) -> tuple[float, float, int, float]:
     """(RMS error, RMS error/sigma, restarts, flagged share) over the second half."""
-    s = {**defaults(), **settings, "seed": seed}
-    truth = GyroParameters(**{n: float(s[n]) for n in PARAMETER_UNITS})
-    design = GyroParameters(**{n: float(s[f"{n}_0"]) for n in PARAMETER_UNITS})
-    tuning = ObserverTuning(**{k: int(s[k]) if k in INTEGERS else float(s[k])
-                               for k in ObserverTuning.__dataclass_fields__})
-    h = internal_step(s)
-    f = (NOISE_STEP / h) ** 0.5  # the sensor's noise density at its internal step
-    plant = GyroPlantModel(truth, MeasurementNoise(x=s["noise_x"] * f, y=s["noise_y"] * f),
-                           seed)
-    observer = GyroStateObserver(design, float(s["Omega_z_0"]), 1, tuning)
-    drive = TwoToneDrive(A1=s["A1"], f1=s["f1"], A2=s["A2"], f2=s["f2"])
+    plant, observer, drive, h = chain_parts({**settings, "seed": seed})
     n = round(seconds / h)
     err, ratio, flagged = [], [], 0
     with warnings.catch_warnings():

@@ -46,12 +46,10 @@ class ChainResult:
     status: np.ndarray
 
 
-def run_chain(settings: Mapping[str, float], Omega_z: Callable[[float], float],
-              times: np.ndarray) -> ChainResult:
-    """The chain from t = 0 to each of `times` (increasing), with Omega_z(t_i) held over
-    [t_i, t_i+1): outputs at the last internal step at or before each time."""
-    from scipy.signal import butter, lfilter, lfilter_zi
-
+def chain_parts(settings: Mapping[str, float]
+                ) -> tuple[GyroPlantModel, GyroStateObserver, TwoToneDrive, float]:
+    """The sensor's plant (its noise density kept at the internal step), observer and drive
+    at `settings` (the FMU's parameters; the rest at their start values), and the step."""
     s = {**defaults(), **settings}
     truth = GyroParameters(**{n: float(s[n]) for n in PARAMETER_UNITS})
     design = GyroParameters(**{n: float(s[f"{n}_0"]) for n in PARAMETER_UNITS})
@@ -62,6 +60,17 @@ def run_chain(settings: Mapping[str, float], Omega_z: Callable[[float], float],
                            int(s["seed"]))
     observer = GyroStateObserver(design, float(s["Omega_z_0"]), 1, tuning)
     drive = TwoToneDrive(A1=s["A1"], f1=s["f1"], A2=s["A2"], f2=s["f2"])
+    return plant, observer, drive, h
+
+
+def run_chain(settings: Mapping[str, float], Omega_z: Callable[[float], float],
+              times: np.ndarray) -> ChainResult:
+    """The chain from t = 0 to each of `times` (increasing), with Omega_z(t_i) held over
+    [t_i, t_i+1): outputs at the last internal step at or before each time."""
+    from scipy.signal import butter, lfilter, lfilter_zi
+
+    s = {**defaults(), **settings}
+    plant, observer, drive, h = chain_parts(s)
     n_times = len(times)
     hats, sigmas, status = np.empty(n_times), np.empty(n_times), np.empty(n_times)
     k = 0
