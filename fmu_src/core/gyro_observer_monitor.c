@@ -226,6 +226,7 @@ int gyro_observer_warning(const GyroObserver *o, char *msg, size_t n) {
         snprintf(what, sizeof what, "one-step predictions miss by %.3g RMS of the signal, "
                  "above %.3g", m->value, lim->rel_warn);
     snprintf(msg, n, "observer at t=%.6g s: %s: the estimates may be off (initial guesses "
-             "far, or noise larger than told)", o->t, what);
+             "far, noise larger than told, or a rate jump faster than its rate models)",
+             o->t, what);
     return 1;
 }

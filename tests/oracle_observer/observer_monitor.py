@@ -207,7 +207,7 @@ def warning_message(mon, lim_t: tuple, t: float) -> str:
         what = (f"one-step predictions miss by {value:.3g} RMS of the signal, above "
                 f"{lim.rel_warn:.3g}")
     return (f"observer at t={t:.6g} s: {what}: the estimates may be off (initial guesses "
-            f"far, or noise larger than told)")
+            f"far, noise larger than told, or a rate jump faster than its rate models)")
 
 
 @njit(cache=True)
