@@ -205,12 +205,15 @@ def test_sigmas_shrink_and_interface_keys() -> None:
 
 
 # ---------------------------------------------------------------- state save / restore
-def test_get_set_state_roundtrip_is_exact_and_json_serializable() -> None:
+@pytest.mark.parametrize("rate_model", [0, 4])
+def test_get_set_state_roundtrip_is_exact_and_json_serializable(rate_model) -> None:
+    """... with rate_model 4's moving bank: its scale travels with the state."""
     name = "patent-table1-corrected"
     p = preset(name)
     ux, z, hs = simulate(name, SINE, 600)
-    a = GyroStateObserver(guess(p), tuning=ObserverTuning(noise_rel=1e-5))
+    a = GyroStateObserver(guess(p), tuning=ObserverTuning(noise_rel=1e-5, rate_model=rate_model))
     run(a, ux, z, hs, 0, 300)
+    assert (a._c.rate_scale != 0.0) == (rate_model == 4)
     snap = json.loads(json.dumps(a.get_state()))
     run(a, ux, z, hs, 300, 600)
     b = GyroStateObserver(preset("park-horowitz"), measured_pair=2)  # different on purpose

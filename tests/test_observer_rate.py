@@ -263,18 +263,19 @@ def test_the_rate_processes_and_their_switching():
 @pytest.mark.parametrize("rate_model, n, names", [
     (0, 14, ("constant", "rough", "slow", "agile", "rough x3", "rough x10", "rough x100")),
     (1, 12, ("constant",)),
-    (2, 14, ("tracking",)), (3, 13, ("expert",))])
+    (2, 14, ("tracking",)), (3, 13, ("expert",)),
+    (4, 14, ("constant", "rough", "slow", "agile", "rough low", "rough high"))])
 def test_each_rate_model_runs_and_reports_its_probabilities(rate_model, n, names):
     obs = GyroStateObserver(scenario("default").params, 0.0, 1,
                             ObserverTuning(rate_model=rate_model))
     assert obs.n == n and obs.rate_models == names
     p = obs.rate_probabilities()
     assert set(p) == {"constant", "rough", "slow", "agile"}
-    assert sum(p.values()) == pytest.approx({0: 1.0, 1: 1.0, 2: 1.0, 3: 0.0}[rate_model])
+    assert sum(p.values()) == pytest.approx({0: 1.0, 1: 1.0, 2: 1.0, 3: 0.0, 4: 1.0}[rate_model])
 
 
 @pytest.mark.parametrize("field, value, words", [
-    ("rate_model", 4, "use 0 (adaptive)"), ("rate_bandwidth", 0.0, "unit: Hz"),
+    ("rate_model", 5, "use 0 (adaptive)"), ("rate_bandwidth", 0.0, "unit: Hz"),
     ("rate_span", -1.0, "must be a finite number >= 0"), ("rate_dwell", 0.0, "unit: s")])
 def test_bad_rate_tuning_is_refused_by_name(field, value, words):
     with pytest.raises(ValueError, match=field) as exc:

@@ -138,8 +138,9 @@ def test_a_rate_no_gyro_can_sense_is_refused():
         inst.slave.freeInstance()
 
 
-def test_state_round_trip_reproduces_the_outputs():
-    inst = Instance(prebuilt_fmu("GyroSensor"))
+@pytest.mark.parametrize("rate_model", [0, 4])
+def test_state_round_trip_reproduces_the_outputs(rate_model):
+    inst = Instance(prebuilt_fmu("GyroSensor"), parameters={"rate_model": rate_model})
     try:
         inst.set({"Omega_z": 0.3})
         for _ in range(3):
@@ -223,3 +224,40 @@ def test_host_steps_follow_the_true_rate_delayed_by_the_declared_latency():
         assert np.all(np.abs(delayed) <= 4 * r["sigma_Omega_meas"][late]), h
         undelayed = r["Omega_meas"][late] - sine(r["time"][late])
         assert np.sqrt(np.mean(delayed**2)) < np.sqrt(np.mean(undelayed**2)), h
+
+
+def _sway_run(rate_model: int, seed: int) -> tuple[float, float]:
+    """GyroSensor.fmu at a 1 ms host step: 0.5 s at rest, then a sway of 0.05 rad/s at
+    2 Hz to 1.5 s. Over 1.0-1.5 s: the gain of Omega_hat at 2 Hz (a least-squares sine
+    fit) and the RMS of its error over the FMU's own sigma_Omega_meas (resolution 0)."""
+    from gyro_fmu.studies.response import sine_gain
+
+    rest, stop, amplitude, f, h = 0.5, 1.5, 0.05, 2.0, 1e-3
+
+    def sway(t):
+        return np.where(t >= rest, amplitude * np.sin(2 * np.pi * f * (t - rest)), 0.0)
+
+    t = np.arange(round(stop / h) + 1) * h
+    inputs = np.zeros(t.size, dtype=[("time", float), ("Omega_z", float)])
+    inputs["time"], inputs["Omega_z"] = t, sway(t)
+    r = fmpy.simulate_fmu(str(prebuilt_fmu("GyroSensor")), stop_time=stop, output_interval=h,
+                          input=inputs, start_values={"rate_model": rate_model,
+                                                      "resolution": 0.0, "seed": seed})
+    judged = r["time"] >= 1.0 - 1e-9
+    held = r["time"][judged] - h  # the output at t follows the input held over the step
+    gain = sine_gain(held - rest, r["Omega_hat"][judged], f, amplitude)["gain"]
+    ratio = (r["Omega_hat"][judged] - sway(held)) / r["sigma_Omega_meas"][judged]
+    return gain, float(np.sqrt(np.mean(ratio**2)))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_moving_bank_follows_a_small_slow_sway_honestly(seed):
+    """rate_model 4 (the moving bank) on a sway far below the adaptive set's fixed
+    intensities: gain 1 within 15 % and error/sigma under 1.4 (measured over seeds 0-5:
+    gain 1.02-1.07, error/sigma 0.76-1.14). The default, rate_model 0, misreads the same
+    sway with a sigma 3-6 times too small (measured 3.4-5.6, gain 0.75-1.32; five of six
+    seeds raise status 1 through the re-fit test, seed 4 none): if it stops doing so, the
+    documents that say so (docs/gyro-sensor.md, "What falls short") are out of date."""
+    gain, honesty = _sway_run(4, seed)
+    assert 0.85 <= gain <= 1.15 and honesty < 1.4, (gain, honesty)
+    assert _sway_run(0, seed)[1] > 2.5

@@ -53,9 +53,10 @@ int gyro_observer_tuning_problems(const GyroObserverTuning *tun, char *msg, size
                  (int)tun->omega_order);
         return 1;
     }
-    if (tun->rate_model < 0 || tun->rate_model > 3) {
+    if (tun->rate_model < 0 || tun->rate_model > 4) {
         snprintf(msg, n, "rate_model=%d: use 0 (adaptive), 1 (constant), 2 (tracking at "
-                 "rate_bandwidth) or 3 (expert: q_Omega, omega_order)", (int)tun->rate_model);
+                 "rate_bandwidth), 3 (expert: q_Omega, omega_order) or 4 (adaptive with a "
+                 "moving bank)", (int)tun->rate_model);
         return 1;
     }
     const struct { const char *name, *unit; double v; } positive[] = {
@@ -157,7 +158,7 @@ int gyro_observer_init(GyroObserver *o, const GyroParams *guess, double Omega_z_
     o->pair = pair;
     o->order = tun->rate_model == 1 ? 1 : tun->rate_model == 3 ? tun->omega_order : 3;
     o->n = 4 + GYRO_OBS_NPAR + o->order;
-    o->n_models = tun->rate_model == 0 ? GYRO_OBS_MMAX : 1;
+    o->n_models = tun->rate_model == 0 ? GYRO_OBS_MMAX : tun->rate_model == 4 ? BANK_MODELS : 1;
     o->i0 = pair == 1 ? 0 : 1;
     const double wx = sqrt(guess->kxx), wy = sqrt(guess->kyy);
     const double theta0[GYRO_OBS_NPAR] = {guess->kxx, guess->kyy, guess->kxy, guess->dxx,
@@ -362,6 +363,7 @@ void gyro_observer_rate_probabilities(const GyroObserver *o, double p[4]) {
     p[0] = p[1] = p[2] = p[3] = 0.0;
     switch (o->tuning.rate_model) {
     case 0:
+    case 4:
         memcpy(p, o->c, 4 * sizeof(double));
         for (int j = 4; j < o->n_models; j++) p[1] += o->c[j]; /* graded rough models */
         break;
@@ -410,6 +412,8 @@ static const char *restored_state_problem(const GyroObserver *o) {
         (o->P_partial != 0 && o->P_partial != 1))
         return "an unknown status";
     if (o->auto_prior < 0 || o->auto_prior > 2) return "an auto prior state not 0, 1 or 2";
+    if (!(o->rate_scale >= log(BANK_MIN) && o->rate_scale <= log(BANK_MAX)))
+        return "a moving bank's scale outside its range";
     if (!memchr(o->lost_message, '\0', sizeof o->lost_message)) return "an unterminated message";
     return NULL;
 }

@@ -179,6 +179,7 @@ void obs_imm_update(GyroObserver *o, double z1, double z2, double h, int with_P)
             total += o->mu[j];
         }
         for (int j = 0; j < M; j++) o->mu[j] /= total;
+        if (o->tuning.rate_model == 4) obs_bank_move(o);
     } else {
         o->mu[0] = 1.0;
     }

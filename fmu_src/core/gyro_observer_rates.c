@@ -25,6 +25,42 @@ static void rate_process(int order, double q, double h, double F[GYRO_OBS_RMAX][
         }
 }
 
+/* rate_model 4's intensities at its scale c = exp(rate_scale): [constant, rough c, slow
+ * min(c, 1), agile, rough c / BANK_RATIO, rough c BANK_RATIO]. */
+static void bank_models(const GyroObserver *o, int orders[BANK_MODELS],
+                        double qs[BANK_MODELS]) {
+    const GyroObserverTuning *tun = &o->tuning;
+    const double slow = tun->rate_bandwidth / SLOW_FRACTION, c = exp(o->rate_scale);
+    const double rough = intensity(1, tun->rate_span, slow) * c;
+    orders[0] = 1, qs[0] = 0.0;
+    orders[1] = 1, qs[1] = rough;
+    orders[2] = 2, qs[2] = intensity(2, tun->rate_span, slow) * (c < 1.0 ? c : 1.0);
+    orders[3] = 3, qs[3] = intensity(3, tun->rate_span, tun->rate_bandwidth);
+    orders[4] = 1, qs[4] = rough / BANK_RATIO;
+    orders[5] = 1, qs[5] = rough * BANK_RATIO;
+}
+
+/* After a correction's probabilities: log c moves by the slope of the probabilities across
+ * the rough models (BANK_* in gyro_observer_internal.h), and the moving models' process
+ * noise over the step follows it. */
+void obs_bank_move(GyroObserver *o) {
+    const double *mu = o->mu, h = o->h_cached;
+    const double W = mu[1] + mu[2] + mu[4] + mu[5];
+    const double g = (mu[5] - mu[4]) / W;
+    if (!(W > 0.0 && isfinite(g) && h > 0.0)) return;
+    const double lo = log(BANK_MIN), hi = log(BANK_MAX);
+    const double s = o->rate_scale + h / BANK_TAU * g * log(BANK_RATIO);
+    o->rate_scale = s < lo ? lo : s > hi ? hi : s;
+    int orders[BANK_MODELS];
+    double qs[BANK_MODELS];
+    bank_models(o, orders, qs);
+    static const int moving[4] = {1, 2, 4, 5};
+    for (int k = 0; k < 4; k++) {
+        const int j = moving[k];
+        rate_process(orders[j], qs[j], h, o->Fr[j], o->Qr[j]);
+    }
+}
+
 void gyro_observer_set_step(GyroObserver *o, double h) {
     const GyroObserverTuning *tun = &o->tuning;
     const double span = tun->rate_span, f = tun->rate_bandwidth;
@@ -42,6 +78,7 @@ void gyro_observer_set_step(GyroObserver *o, double h) {
         for (int j = 4; j < M; j++) orders[j] = 1, qs[j] = ROUGH_GRADES[j - 4] * qs[1];
         break;
     }
+    case 4: bank_models(o, orders, qs), M = BANK_MODELS; break;
     case 1: orders[0] = 1, qs[0] = 0.0; break;
     case 2: orders[0] = 3, qs[0] = intensity(3, span, f); break;
     default: orders[0] = tun->omega_order, qs[0] = tun->q_Omega; break;

@@ -321,7 +321,8 @@ class GyroStateObserver:
             "xhat": self.xhat.tolist(),
             "P": self.P.tolist(),
             "rate_filters": {"x": self.xs.tolist(), "P": self.Ps.tolist(),
-                             "mu": self.mu.tolist(), "c": self.c.tolist()},
+                             "mu": self.mu.tolist(), "c": self.c.tolist(),
+                             "rate_scale": float(self._c.rate_scale)},
             "peak": self.peak.tolist(),
             "nu2": [*self._view("nu2").tolist(), *self._view("nu2_zero").tolist(),  # gain's, P's
                     float(self._c.nu2_mass)],
@@ -409,6 +410,7 @@ class GyroStateObserver:
             else:
                 setattr(c.refit, name, float(value))
         c.t = float(state["t"])
+        c.rate_scale = float(rf.get("rate_scale", 0.0))  # rate_model 4's bank (absent: c 1)
         held = state.get("held")  # absent in states saved before the cache: it starts empty
         if held is not None:
             if not isinstance(held, dict) or set(held) != set(_HELD_FIELDS):

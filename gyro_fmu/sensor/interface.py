@@ -62,6 +62,9 @@ RESOLUTION = 2 * FULL_SCALE / 2 ** 16
 #: the default gyro at noise 1e-4, a constant 1 rad/s then a 5 Hz sine of 0.2 rad/s: RMS
 #: error 7.7e-3 / 2.3e-2 rad/s against 3.2e-2 / 3.4e-2 for the one tracking model and
 #: 7.7e-3 / 7.1e-2 for the constant one; docs/gyro-sensor.md). Overridden here by name.
+#: rate_model 4 (the moving bank) follows small slow sways that rate_model 0 misreads,
+#: but re-converges worse after a step from rest; it is a setting, not the default
+#: (docs/gyro-sensor.md, "What falls short").
 TUNING_STARTS: dict[str, float] = {}
 OUTPUTS = ("Omega_meas", "sigma_Omega_meas", "Omega_hat", "status", "saturated")
 

@@ -59,7 +59,7 @@ def measure_spec(cfg: SpecConfig, progress: Callable[[str], None] = lambda s: No
     allan = allan_study(rec, cfg)
     allan["rate_model_probabilities"] = (
         probability_summary(rec, allan["settled_from_s"], h)
-        if int(getattr(tun, "rate_model", -1)) == 0 else None)  # only the adaptive mixes
+        if int(getattr(tun, "rate_model", -1)) in (0, 4) else None)  # only the IMMs mix
     trace = startup_trace(rec, allan["startup_window_s"], h)
     warnings_ = warning_summary("Allan/start-up run", rec)
     del rec
@@ -158,7 +158,8 @@ def startup_trace(rec: Record, window: float, h: float, points: int = 400) -> di
 
 def rate_model_text(tun: ObserverTuning) -> str:
     """The observer's rate model in words, for the ObserverTuning at hand: with a
-    rate_model field (0 adaptive, 1 constant, 2 tracking, 3 expert) or without one
+    rate_model field (0 adaptive, 1 constant, 2 tracking, 3 expert, 4 moving bank) or
+    without one
     (q_Omega on the omega_order-th derivative only)."""
     d = asdict(tun)
     if "rate_model" not in d:
@@ -168,6 +169,9 @@ def rate_model_text(tun: ObserverTuning) -> str:
               f"rate_span {d.get('rate_span', float('nan')):g} rad/s")
     if kind == 0:
         return (f"rate_model 0 (adaptive: constant/rough/slow/agile mixed), {follow}, "
+                f"rate_dwell {d.get('rate_dwell', float('nan')):g} s")
+    if kind == 4:
+        return (f"rate_model 4 (adaptive, a moving bank of intensities), {follow}, "
                 f"rate_dwell {d.get('rate_dwell', float('nan')):g} s")
     if kind == 1:
         return "rate_model 1 (constant)"

@@ -30,11 +30,13 @@ TUNING = Struct("GyroObserverTuning", "The observer's tuning (ObserverTuning in 
                'matching)')),
     Field('innov_tau', default=0.001, unit='s', min=0.0,
           doc=('time constant of the running mean of the squared innovations')),
-    Field('rate_model', 'int32_t', default=0, unit='1', min=0.0, max=3,
+    Field('rate_model', 'int32_t', default=0, unit='1', min=0.0, max=4,
           doc=('model of Omega_z(t): 0 adaptive (the observer finds from its innovations whether '
                'the rate is constant, wandering, slow or agile: an interacting-multiple-model '
                'filter, docs/observer-rate-model.md); 1 constant; 2 tracking (follows rate_span '
-               'at rate_bandwidth); 3 expert (q_Omega on the omega_order-th derivative)')),
+               'at rate_bandwidth); 3 expert (q_Omega on the omega_order-th derivative); 4 '
+               'adaptive with a moving bank (the wandering and slow models follow the '
+               "likelihood down to small slow motions: GyroSensor's default)")),
     Field("pad_rate_model", "int32_t", hidden=True),  # the doubles stay 8-byte aligned
     Field('rate_bandwidth', default=150.0, unit='Hz', min=0.0,
           doc=('fastest rate motion to follow (rate_model 0 and 2): the agile model follows a '
@@ -169,6 +171,8 @@ OBSERVER = Struct(
         Field("lim", MONITOR_LIMITS),
         Field("h_cached", unit="s", doc="the step the rate models below are for"),
         Field("qpar"),
+        Field("rate_scale", doc="rate_model 4: log of the moving bank's scale c (its rough "
+              "models at c x {1/10, 1, 10} of the rough intensity, the slow one at min(c, 1))"),
         Field("Fr", shape=(MMAX, RMAX, RMAX)), Field("Qr", shape=(MMAX, RMAX, RMAX)),
         Field("Pi", shape=(MMAX, MMAX), doc="rate models' transition probabilities"),
         Field("x", shape=(NMAX,), doc="the combined estimate"),
