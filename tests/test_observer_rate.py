@@ -292,3 +292,26 @@ def test_a_state_with_the_wrong_number_of_rate_probabilities_is_refused():
     state["rate_filters"]["c"] = state["rate_filters"]["c"][:3]
     with pytest.raises(ValueError, match="rate filters"):
         obs.set_state(state)
+
+
+def test_a_restored_bank_scale_outside_its_range_is_refused_by_the_core():
+    """rate_model 4's scale is checked where an FMU restores a state (the core's
+    gyro_observer_restored_problem): within [ln 1e-3, ln 10] it goes on; beyond, it is
+    refused by name (an exp of it would set the moving models' process noise)."""
+    from gyro_fmu.estimation.observer import Params, c_tuning
+
+    p = scenario("default").params
+    tun = ObserverTuning(rate_model=4)
+    obs = GyroStateObserver(p, 0.0, 1, tun)
+    guess = Params(*(float(getattr(p, n)) for n, _ in Params._fields_))
+
+    def problem(scale: float) -> str:
+        obs._c.rate_scale = scale
+        code = obs._lib.gyro_observer_restored_problem(
+            obs._ref, ctypes.byref(guess), ctypes.c_double(0.0), ctypes.c_int(1),
+            ctypes.byref(c_tuning(tun)), obs._msg, ctypes.c_size_t(len(obs._msg)))
+        return obs._msg.value.decode() if code else ""
+
+    assert problem(math.log(0.5)) == ""
+    for bad in (math.log(20.0), math.log(1e-4), math.nan):
+        assert "a moving bank's scale outside its range" in problem(bad), bad
