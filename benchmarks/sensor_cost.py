@@ -89,7 +89,7 @@ def main() -> None:
     folder = str(extract(str(prebuilt_fmu("GyroSensor"))))
     try:
         cases = {f"preset {name}": dict(s) for name, s in SENSOR_PRESETS.items()}
-        cases.update({f"consumer, rate_model {m}": {"rate_model": m} for m in (1, 2)})
+        cases.update({f"consumer, rate_model {m}": {"rate_model": m} for m in (1, 2, 4)})
         print(f"GyroSensor.fmu, {args.seconds:g} s at a {H * 1e3:g} ms host step: CPU s per "
               "simulated s (min / median of", args.repeat, "runs)")
         for name, start in cases.items():
