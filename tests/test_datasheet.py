@@ -25,8 +25,8 @@ from gyro_fmu.sensor.datasheet import (
     TERMS,
     _step_response,
     check_datasheet,
-    read_fmu_datasheet,
 )
+from gyro_fmu.sensor.datasheet_fmu import read_fmu_datasheet
 from gyro_fmu.sensor.presets import SENSOR_PRESETS
 from gyro_fmu.studies.response import bandwidth_3db, sine_gain
 

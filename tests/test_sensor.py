@@ -205,7 +205,7 @@ def test_host_steps_follow_the_true_rate_delayed_by_the_declared_latency():
     the FMU's own sigmas at every point from 0.4 s (measured: 2.5 at most; the error is
     the observer's while it tracks the sine, RMS 0.020 rad/s against a sigma of 0.034), and
     closer to it than to the undelayed rate (the 2.6 ms latency is 0.033 rad/s here)."""
-    from gyro_fmu.sensor.datasheet import read_fmu_datasheet
+    from gyro_fmu.sensor.datasheet_fmu import read_fmu_datasheet
 
     latency = read_fmu_datasheet(prebuilt_fmu("GyroSensor"))["figures"]["latency"]["value"]
 

@@ -431,7 +431,7 @@ def build_native(dest: Path, names: tuple[str, ...] = tuple(NATIVE_INTERFACES),
                     say(f"{name}'s datasheets, one per preset: measured from its own "
                         "output (about 3 minutes), or kept from the last build of the same "
                         "binary")
-                from ..sensor.datasheet import add_datasheet
+                from ..sensor.datasheet_fmu import add_datasheet
 
                 add_datasheet(built, Path(dest) / f".{name}.datasheet.json")
             out += built

@@ -28,7 +28,8 @@ def sources_digest() -> str:
              for f in [*root.glob("core/*"), *root.glob("fmi/*"), *root.glob("models/*/*")]
              if f.is_file()}
     for name in (*DECLARATION_FILES, "fmu/native.py", "fmu/macho.py", "model/units.py",
-                 "sensor/datasheet.py", "sensor/presets.py", "sensor/gyros.py"):
+                 "sensor/datasheet.py", "sensor/datasheet_fmu.py", "sensor/presets.py",
+                 "sensor/gyros.py"):
         files[name] = PACKAGE_DIR / name
     return _digest(tuple((name, str(files[name]), files[name].stat().st_mtime_ns,
                           files[name].stat().st_size) for name in sorted(files)))

@@ -25,7 +25,6 @@ What the figures mean for an observer-based gyro, and what they are not: docs/da
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import tempfile
@@ -41,7 +40,6 @@ from ..cosim.instances import LogCollector, fmi2_callbacks
 from ..errors import GyroFmuError
 from ..studies.allan import BIAS_INSTABILITY_FACTOR, allan_deviation, allan_taus
 from ..studies.response import bandwidth_3db, sine_gain
-from .presets import SENSOR_PRESETS
 
 #: The protocol (s, rad/s, Hz). Host steps: 1 ms for the records, 0.2 ms for the step
 #: and the sines (their hold lags h/2, taken out of the phase).
@@ -52,6 +50,10 @@ SINE_AMPLITUDE = 1.0
 SINE_FREQUENCIES = (5.0, 10.0, 20.0, 40.0, 60.0, 80.0, 100.0, 120.0, 150.0, 200.0)
 SINE_MIN_LENGTH, SINE_MIN_PERIODS, SINE_SKIP = 0.1, 5, 0.3
 SF_RATE, SF_SETTLE, SF_RECORD = 10.0, 0.5, 0.5
+#: A vehicle's sway: a small slow sine, fitted over its last SWAY_LENGTH - SWAY_SKIP s
+#: (the figures above are for 1 rad/s; the observer's adaptive rate models take a motion
+#: this small for a constant rate: docs/gyro-sensor.md, "What falls short").
+SWAY_AMPLITUDE, SWAY_FREQUENCY, SWAY_LENGTH, SWAY_SKIP = 0.05, 2.0, 1.5, 0.5
 #: Seeds of the shipped datasheet; a check uses others.
 SEEDS = (1, 2, 3, 4, 5, 6)
 CHECK_SEEDS = (101, 102)
@@ -104,6 +106,12 @@ TERMS: dict[str, Term] = {
                       "(IEEE 1431 12.15), relative to the lowest frequency's gain"),
     "peaking": Term("dB", "largest gain of the sines over the lowest frequency's"),
     "group_delay": Term("s", f"-phase / (2 pi f) of the {SINE_FREQUENCIES[0]:g} Hz sine"),
+    "sway_gain": Term("1", f"gain of the output at {SWAY_FREQUENCY:g} Hz for a sine of "
+                      f"{SWAY_AMPLITUDE:g} rad/s from the warm-up (a vehicle's sway: the "
+                      f"figures above are for 1 rad/s), over its last "
+                      f"{SWAY_LENGTH - SWAY_SKIP:g} s"),
+    "sway_error": Term("rad/s", "RMS of the output minus the input rate over the same "
+                       "window (compare noise_rms: the error at rest)"),
 }
 
 
@@ -203,6 +211,18 @@ def _sine_response(inst: _Instance, warm: tuple[object, float]) -> tuple[list[di
                       "group_delay": delay}
 
 
+def _sway_response(inst: _Instance, warm: tuple[object, float]) -> dict:
+    """sway_gain and sway_error (TERMS) from the warm-up state, at the records' host step."""
+    inst.restore(warm)
+    h, w = RECORD_STEP, 2.0 * math.pi * SWAY_FREQUENCY
+    t, y = inst.run(lambda s: SWAY_AMPLITUDE * math.sin(w * s), SWAY_LENGTH, h, "the sway")
+    s = t - warm[1] - h  # the time of each output's input: held over its step
+    keep = s >= SWAY_SKIP - 1e-9
+    gain = sine_gain(s[keep] + h / 2, y[keep], SWAY_FREQUENCY, SWAY_AMPLITUDE)["gain"]
+    error = y[keep] - SWAY_AMPLITUDE * np.sin(w * s[keep])
+    return {"sway_gain": gain, "sway_error": float(np.sqrt(np.mean(error**2)))}
+
+
 def measure_seed(unzipped: str, settings: Mapping[str, float], seed: int,
                  bandwidth: float) -> dict:
     """Every figure of one seed, with the curves they come from (see the module);
@@ -240,6 +260,7 @@ def measure_seed(unzipped: str, settings: Mapping[str, float], seed: int,
     figures.update(_step_response(t - warm[1], ys, t_step))
     response, sines = _sine_response(inst, warm)
     figures.update(sines)
+    figures.update(_sway_response(inst, warm))
     inst.fmu.terminate()
     inst.fmu.freeInstance()
     warnings = [m for _, status, _, m in inst.log.messages if status == 1]
@@ -329,105 +350,3 @@ def check_datasheet(reference: dict, measured: dict,
                             f"datasheet's {ref['value']:.4g} +- {ref['uncertainty']:.2g} "
                             f"(allowed +-{tol:.2g} at {probability:.1%})")
     return problems
-
-
-def public(datasheet: dict) -> dict:
-    """The datasheet without its curves (what the FMU carries)."""
-    return {k: v for k, v in datasheet.items() if k != "curves"}
-
-
-def figure_text(figure: dict) -> tuple[str, str]:
-    """A figure's value ("<= " before an upper bound) and uncertainty ("" for a declared
-    one) as a datasheet prints them."""
-    u = figure.get("uncertainty")
-    bound = "<= " if figure.get("bound") == "upper" else ""
-    return bound + format(figure["value"], ".4g"), "" if u is None else format(u, ".2g")
-
-
-def datasheet_markdown(sheet: dict) -> str:
-    """The datasheet in human form: a table of the figures, then the protocol."""
-    p = sheet["protocol"]
-    lines = [f"# {sheet['model']}: datasheet ({sheet.get('preset', 'custom settings')})", "",
-             "Measured by the build from this FMU's own output (gyro_fmu "
-             "docs/datasheet.md); the same figures in datasheet.json. Settings: "
-             f"{sheet['settings'] or 'the FMU defaults'}.", "",
-             "| figure | value | +- (one seed) | unit | how |", "| --- | --- | --- | --- | --- |"]
-    for name, f in sheet["figures"].items():
-        value, u = figure_text(f)
-        lines.append(f"| {name} | {value} | {u} | {f['unit']} | {f['how']} |")
-    lines += ["", f"Protocol: warm-up {p['warm_up_s']:g} s at rate 0, record {p['record_s']:g} "
-              f"s at a {p['record_step_s']:g} s host step; step and sines at {p['fast_step_s']:g} "
-              f"s; seeds {p['seeds']}; uncertainty: {p['uncertainty']}. Check it: "
-              "`gyro-fmu datasheet --check --fmu THIS.fmu`.", ""]
-    return "\n".join(lines)
-
-
-def read_fmu_datasheet(fmu: Path, preset: str = DEFAULT_PRESET) -> dict:
-    """The datasheet of a preset (default: the FMU's defaults) that an FMU carries."""
-    import zipfile
-
-    name = sheet_names(preset)[0]
-    with zipfile.ZipFile(fmu) as z:
-        try:
-            return json.loads(z.read(name))
-        except KeyError:
-            raise DatasheetError(f"{fmu} has no {name}: measure one with "
-                                 "`gyro-fmu datasheet`") from None
-
-
-def fmu_key(fmu: Path) -> str:
-    """What a datasheet is measured from: the FMU's model description, its sources and
-    the binary this host runs (the others are not run; the darwin64 one differs from build
-    to build), and this module (the protocol)."""
-    import hashlib
-    import zipfile
-
-    from fmpy import platform
-
-    h = hashlib.sha256(Path(__file__).read_bytes())
-    with zipfile.ZipFile(fmu) as z:
-        for name in sorted(z.namelist()):
-            if name == "modelDescription.xml" or name.startswith(
-                    ("sources/", f"binaries/{platform}/")):
-                h.update(name.encode() + b"\0" + z.read(name))
-    return h.hexdigest()
-
-
-def sheet_names(preset: str) -> tuple[str, str]:
-    """The FMU members of a preset's datasheet (JSON, text): the defaults' (consumer) are
-    DATASHEET and DATASHEET_TEXT, another preset's documentation/datasheet-<name>.*."""
-    if preset == DEFAULT_PRESET:
-        return DATASHEET, DATASHEET_TEXT
-    return f"documentation/datasheet-{preset}.json", f"documentation/datasheet-{preset}.md"
-
-
-def add_datasheet(fmus: Sequence[Path], cache: Path) -> dict:
-    """Measure the datasheet of fmus[0] (FMI 2.0) at every preset (SENSOR_PRESETS), or take
-    them from `cache` when measured from the same FMU and presets, and write them into
-    every FMU of `fmus` (FMI 2.0 and 3.0 share the binaries). Returns them by preset."""
-    import hashlib
-    import zipfile
-
-    key = hashlib.sha256((fmu_key(fmus[0]) + json.dumps(SENSOR_PRESETS, sort_keys=True))
-                         .encode()).hexdigest()
-    sheets = None
-    if cache.is_file():
-        cached = json.loads(cache.read_text())
-        if cached.get("key") == key:
-            sheets = cached["sheets"]
-    if sheets is None:
-        sheets = {name: {**public(measure_datasheet(fmus[0], settings)), "preset": name}
-                  for name, settings in SENSOR_PRESETS.items()}
-        cache.write_text(json.dumps({"key": key, "sheets": sheets}))
-    members = {}
-    for name, sheet in sheets.items():
-        json_name, text_name = sheet_names(name)
-        members[json_name] = json.dumps(sheet, indent=1) + "\n"
-        members[text_name] = datasheet_markdown(sheet)
-    for fmu in fmus:
-        with zipfile.ZipFile(fmu, "a") as z:
-            for name, text in members.items():
-                info = zipfile.ZipInfo(name, date_time=(2026, 1, 1, 0, 0, 0))
-                info.external_attr = 0o644 << 16
-                z.writestr(info, text, zipfile.ZIP_DEFLATED)
-    return sheets

@@ -46,7 +46,7 @@ def _seeds(text: str) -> tuple[int, ...]:
 
 def format_datasheet(sheet: dict) -> str:
     """The figures as a table: name, value, uncertainty, unit."""
-    from ..sensor.datasheet import figure_text
+    from ..sensor.datasheet_fmu import figure_text
 
     lines = [f"{'figure':<20} {'value':>12} {'+-':>10}  unit"]
     for name, f in sheet["figures"].items():
@@ -97,14 +97,8 @@ def draw(sheet: dict, path: Path) -> Path:
 @holds_out_folder("runs/datasheet")
 def _cmd_datasheet(args: argparse.Namespace) -> int:
     from ..fmu.build import prebuilt_fmu
-    from ..sensor.datasheet import (
-        CHECK_SEEDS,
-        SEEDS,
-        check_datasheet,
-        measure_datasheet,
-        public,
-        read_fmu_datasheet,
-    )
+    from ..sensor.datasheet import CHECK_SEEDS, SEEDS, check_datasheet, measure_datasheet
+    from ..sensor.datasheet_fmu import public, read_fmu_datasheet
     from ..sensor.presets import SENSOR_PRESETS
 
     fmu = Path(args.fmu) if args.fmu else prebuilt_fmu("GyroSensor")
