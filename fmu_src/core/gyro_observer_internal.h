@@ -40,7 +40,7 @@ static const double SLOW_FRACTION = 10.0;
  * likelihood among graded ones (one fixed intensity left 30-50 Hz wandering rates at
  * error/sigma 1.9-2.7; docs/observer-rate-model.md). */
 static const double ROUGH_GRADES[GYRO_OBS_MMAX - 4] = {3.0, 10.0, 100.0};
-/* rate_model 4, the moving bank (GyroSensor's default): constant, rough, slow, agile and
+/* rate_model 4, the moving bank (a setting; the default is 0): constant, rough, slow, agile and
  * two more random walks, the rough ones at c x {1, 1/BANK_RATIO, BANK_RATIO} of the rough
  * intensity and the slow one at min(c, 1) of its own; log c moves each step by
  * (h / BANK_TAU) ln(BANK_RATIO) (mu_high - mu_low) / (mu_rough + mu_low + mu_high + mu_slow)

@@ -30,13 +30,14 @@ gyro_observer_rates.c), this module names the models and sizes them. A fixed rat
 (constant, tracking at rate_bandwidth, or the expert q_Omega / omega_order) is the same code
 with one model.
 
-rate_model 4 (GyroSensor's default) moves the rough and slow intensities instead of
-grading them: rough models at c x {1/10, 1, 10} of the rough intensity and the slow one
-at min(c, 1) of its own, with c following the slope of the likelihood across the rough
-ones (BANK_* in gyro_observer_internal.h). A slow sway far below the fixed grades (0.05
-rad/s at 2 Hz: error/sigma 3.9 with rate_model 0) is followed honestly (0.97); on the
-honest-observer benchmark's Gauss-Markov rates at noise 1e-5 it is over-confident
-(error/sigma 1.24-1.26), so GyroObserver keeps rate_model 0 (docs/observer-rate-model.md).
+rate_model 4 (a setting, for vehicles that sway) moves the rough and slow intensities
+instead of grading them: rough models at c x {1/10, 1, 10} of the rough intensity and the
+slow one at min(c, 1) of its own, with c following the slope of the likelihood across
+the rough ones (BANK_* in gyro_observer_internal.h). A slow sway far below the fixed
+grades (0.05 rad/s at 2 Hz: error/sigma 3.9 with rate_model 0) is followed honestly
+(0.97); but on the honest-observer benchmark's Gauss-Markov rates at noise 1e-5 it is
+over-confident (error/sigma 1.24-1.26) and after steps from rest it restarts more, so
+neither FMU defaults to it (docs/observer-rate-model.md).
 """
 
 from __future__ import annotations
@@ -51,7 +52,7 @@ class RateModel(IntEnum):
     constant = 1  #: Omega_z constant (as the Cramer-Rao bound assumes)
     tracking = 2  #: one agile model at rate_bandwidth
     expert = 3  #: one model: q_Omega on the omega_order-th derivative
-    moving = 4  #: IMM as adaptive, its rough and slow intensities a moving bank (GyroSensor)
+    moving = 4  #: IMM as adaptive, its rough and slow intensities a moving bank
 
 
 #: The adaptive set's models (rate_probabilities, the FMU's p_rate_* outputs).

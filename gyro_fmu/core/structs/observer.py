@@ -36,7 +36,8 @@ TUNING = Struct("GyroObserverTuning", "The observer's tuning (ObserverTuning in 
                'filter, docs/observer-rate-model.md); 1 constant; 2 tracking (follows rate_span '
                'at rate_bandwidth); 3 expert (q_Omega on the omega_order-th derivative); 4 '
                'adaptive with a moving bank (the wandering and slow models follow the '
-               "likelihood down to small slow motions: GyroSensor's default)")),
+               "likelihood down to small slow motions, and restarts more after steps from "
+               'rest: docs/observer-rate-model.md)')),
     Field("pad_rate_model", "int32_t", hidden=True),  # the doubles stay 8-byte aligned
     Field('rate_bandwidth', default=150.0, unit='Hz', min=0.0,
           doc=('fastest rate motion to follow (rate_model 0 and 2): the agile model follows a '
