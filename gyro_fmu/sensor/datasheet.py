@@ -186,20 +186,29 @@ def _step_response(t: np.ndarray, y: np.ndarray, t_step: float) -> dict:
             "overshoot": float(np.max(yy) / final - 1.0)}
 
 
+def _sine_from_warm(inst: _Instance, warm: tuple[object, float], f: float, amplitude: float,
+                    length: float, h: float, skip: float, what: str
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """A sine of `amplitude` at f Hz for `length` s at host step h from the warm-up state:
+    each output's input time (held over the step before it) and the output, from `skip`."""
+    inst.restore(warm)
+    w = 2.0 * math.pi * f
+    t, y = inst.run(lambda s: amplitude * math.sin(w * s), length, h, what)
+    s = t - warm[1] - h
+    keep = s >= skip
+    return s[keep], y[keep]
+
+
 def _sine_response(inst: _Instance, warm: tuple[object, float]) -> tuple[list[dict], dict]:
     """Gain and phase of each stepped sine, each from the warm-up state."""
     h = FAST_STEP
     response = []
     for f in SINE_FREQUENCIES:
-        inst.restore(warm)
         length = math.ceil(max(SINE_MIN_LENGTH, SINE_MIN_PERIODS / f) * f) / f
-        w = 2.0 * math.pi * f
-        t, y = inst.run(lambda s, w=w: SINE_AMPLITUDE * math.sin(w * s), length, h,
-                        f"the {f:g} Hz sine")
-        s = t - warm[1] - h  # the time of each output's input: held over its step
-        keep = s >= SINE_SKIP * length
-        tau = s[keep] + h / 2  # the held input lags the continuous sine by h / 2
-        response.append(sine_gain(tau, y[keep], f, SINE_AMPLITUDE))
+        s, y = _sine_from_warm(inst, warm, f, SINE_AMPLITUDE, length, h, SINE_SKIP * length,
+                               f"the {f:g} Hz sine")
+        # the held input lags the continuous sine by h / 2
+        response.append(sine_gain(s + h / 2, y, f, SINE_AMPLITUDE))
     bw = bandwidth_3db(response)
     if bw["bound"] is not None:
         raise DatasheetError(f"stepped sines: the gain is {bw['bound']} -3 dB over "
@@ -213,13 +222,11 @@ def _sine_response(inst: _Instance, warm: tuple[object, float]) -> tuple[list[di
 
 def _sway_response(inst: _Instance, warm: tuple[object, float]) -> dict:
     """sway_gain and sway_error (TERMS) from the warm-up state, at the records' host step."""
-    inst.restore(warm)
     h, w = RECORD_STEP, 2.0 * math.pi * SWAY_FREQUENCY
-    t, y = inst.run(lambda s: SWAY_AMPLITUDE * math.sin(w * s), SWAY_LENGTH, h, "the sway")
-    s = t - warm[1] - h  # the time of each output's input: held over its step
-    keep = s >= SWAY_SKIP - 1e-9
-    gain = sine_gain(s[keep] + h / 2, y[keep], SWAY_FREQUENCY, SWAY_AMPLITUDE)["gain"]
-    error = y[keep] - SWAY_AMPLITUDE * np.sin(w * s[keep])
+    s, y = _sine_from_warm(inst, warm, SWAY_FREQUENCY, SWAY_AMPLITUDE, SWAY_LENGTH, h,
+                           SWAY_SKIP - 1e-9, "the sway")
+    gain = sine_gain(s + h / 2, y, SWAY_FREQUENCY, SWAY_AMPLITUDE)["gain"]
+    error = y - SWAY_AMPLITUDE * np.sin(w * s)
     return {"sway_gain": gain, "sway_error": float(np.sqrt(np.mean(error**2)))}
 
 
