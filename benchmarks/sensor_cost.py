@@ -6,8 +6,11 @@ under load, where CPU time is not).
 
 The FMU (FMI 2.0, the package's) stepped by fmpy's FMU2Slave, one setReal and one doStep
 per 1 ms host step, a 1 rad/s step at 50 ms; thread CPU time over the run, min and
-median of the repeats. Target (issue "The gyroscope as a sensor"): <= 1.0 at the defaults;
-the issue on the chain's speed aims at 0.25.
+median of the repeats; beside them the yardstick of chain_cost.py measured in the same
+run (a naive 14x14 double matmul, cc -O2), so that the figure holds across machines and
+loads. Target (issue "The gyroscope as a sensor"): <= 1.0 at the defaults; the issue on
+the chain's speed aims at 0.25, set when the yardstick read 0.915 us: 5.5 matmuls per 20 us
+internal step.
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from chain_cost import matmul_seconds  # the yardstick, from this folder
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 from fmpy.simulation import apply_start_values
@@ -30,6 +34,8 @@ from gyro_fmu.fmu.build import prebuilt_fmu
 from gyro_fmu.sensor.presets import SENSOR_PRESETS
 
 H = 1e-3
+#: The window of the converged instruction count (s): the 1 rad/s step at 50 ms settled.
+CONVERGED = (0.3, 0.4)
 
 
 def cpu_per_second(folder: str, start: dict, seconds: float) -> float:
@@ -70,14 +76,15 @@ def _instructions(folder: str, seconds: float) -> int:
                if "GyroSensor.so" in line and line.strip()[:1].isdigit())
 
 
-def instructions_per_step(folder: str) -> tuple[float, float]:
-    """(per internal step, at start-up): the FMU binary's instructions from runs of 0.03
-    and 0.06 s (20 us internal steps at the defaults): their difference over the 1500
-    steps between them, so that start-up (the drive check: gyro_excitation.c) cancels,
+def instructions_per_step(folder: str, window: tuple[float, float] = (0.03, 0.06)
+                          ) -> tuple[float, float]:
+    """(per internal step, at start-up): the FMU binary's instructions from runs of
+    window[0] and window[1] s (20 us internal steps at the defaults): their difference over
+    the steps between them, so that start-up (the drive check: gyro_excitation.c) cancels,
     and what the shorter run spent beyond its steps."""
-    short, long_ = _instructions(folder, 0.03), _instructions(folder, 0.06)
-    per_step = (long_ - short) / (0.03 / 20e-6)
-    return per_step, short - per_step * (0.03 / 20e-6)
+    short, long_ = _instructions(folder, window[0]), _instructions(folder, window[1])
+    per_step = (long_ - short) / ((window[1] - window[0]) / 20e-6)
+    return per_step, short - per_step * (window[0] / 20e-6)
 
 
 def main() -> None:
@@ -92,13 +99,22 @@ def main() -> None:
         cases.update({f"consumer, rate_model {m}": {"rate_model": m} for m in (1, 2, 4)})
         print(f"GyroSensor.fmu, {args.seconds:g} s at a {H * 1e3:g} ms host step: CPU s per "
               "simulated s (min / median of", args.repeat, "runs)")
+        first = None
         for name, start in cases.items():
             runs = [cpu_per_second(folder, start, args.seconds) for _ in range(args.repeat)]
+            first = first or runs
             print(f"  {name:28s} {min(runs):.3f} / {statistics.median(runs):.3f}")
+        mm = matmul_seconds(Path(folder), 5)
+        print(f"  yardstick: a 14x14 double matmul (cc -O2) takes {mm * 1e6:.3f} us here; the "
+              f"defaults' min is {min(first) / 50e3 / mm:.2f} matmuls per 20 us internal step")
         if args.callgrind:
             per_step, start_up = instructions_per_step(folder)
-            print(f"  instructions per internal step (defaults, callgrind): {per_step:,.0f}; "
-                  f"at start-up (the drive check, set-up): {start_up:,.0f}")
+            print(f"  instructions per internal step (defaults, callgrind): {per_step:,.0f} "
+                  f"at 0.03-0.06 s (at rest, converging); at start-up (the drive check, "
+                  f"set-up): {start_up:,.0f}")
+            per_step, _ = instructions_per_step(folder, CONVERGED)
+            print(f"  instructions per internal step at {CONVERGED[0]:g}-{CONVERGED[1]:g} s "
+                  f"(1 rad/s, converged): {per_step:,.0f}")
     finally:
         shutil.rmtree(folder, ignore_errors=True)
 

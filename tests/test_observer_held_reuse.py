@@ -1,12 +1,13 @@
-"""The observer's held-step reuse (fmu_src/core/gyro_observer_held.c, HELD_TOL = 1e-8):
+"""The observer's held-step reuse (fmu_src/core/gyro_observer_held.c, HELD_TOL = 1e-7):
 the maps are built at one point and reused, corrected to first order, while the
-linearization point stays within ||dA_aug h|| <= 1e-8 of it.
+linearization point stays within ||dA_aug h|| <= 1e-7 of it.
 
 Tolerances (docs/results/performance.md). On the default system over 1 s, reuse moved every
-output by at most 2.1e-11 of its peak and Omega_hat by 1.8e-8 of its own sigma; the same
-exact filter with kxx_0 one ulp off moved them by 1.2e-12 and 1.0e-10. The tests allow
-50x the reuse's measured effect: a wrong map, a wrong correction or a cache that outlives
-its point shows as differences of the order of the noise, 1e-5 and more.
+output by at most 2.5e-9 of its peak and Omega_hat by 3.4e-7 of its own sigma (0.2 s, this
+test's run: 5.6e-10 and 3.4e-7); the same exact filter with kxx_0 one ulp off moved them
+by 1.2e-12 and 1.0e-10. The tests allow 20-30x the reuse's measured effect over 1 s: a
+wrong map, a wrong correction or a cache that outlives its point shows as differences of
+the order of the noise, 1e-5 of a peak and a sigma and more.
 """
 
 from __future__ import annotations
@@ -69,10 +70,10 @@ def test_reuse_stays_within_its_measured_effect_of_the_exact_filter(rate_model: 
     for i in cols:
         peak = np.max(np.abs(exact[:, i])) or 1.0
         worst = np.max(np.abs(reused[:, i] - exact[:, i])) / peak
-        assert worst <= 1e-9, (COLUMNS[i], worst)
+        assert worst <= 5e-8, (COLUMNS[i], worst)
     om, sig = COLUMNS.index("observer.Omega_hat"), COLUMNS.index("observer.sigma_Omega_z")
     late = slice(1000, None)
-    assert np.max(np.abs(reused[late, om] - exact[late, om]) / exact[late, sig]) <= 1e-6
+    assert np.max(np.abs(reused[late, om] - exact[late, om]) / exact[late, sig]) <= 1e-5
 
 
 def test_the_maps_reproduce_the_exact_held_step_at_and_near_their_point() -> None:
@@ -148,3 +149,33 @@ def test_a_state_without_the_cache_starts_it_empty() -> None:
     b.set_state(state)
     assert b.c_struct.held.valid == 0.0 and b.c_struct.held.tol == a.c_struct.held.tol
     assert ctypes.sizeof(b.c_struct) == ctypes.sizeof(a.c_struct)
+
+
+def test_the_sensor_step_reuses_the_maps_once_converged() -> None:
+    """GyroSensor's chain at its 20 us internal step (in process): by 0.3 s most steps
+    reuse the maps (HELD_TOL = 1e-8 reused 18 % of the first 0.6 s there, 1e-7 86 %: the
+    speed of GyroSensor.fmu), and Omega_hat stays within 1e-5 of its sigma of the exact
+    filter (measured over 1 s at the three presets: 1.4e-7 to 1.5e-6)."""
+    from gyro_fmu.sensor.inprocess import chain_parts, defaults
+
+    def run(tol: float | None) -> tuple[np.ndarray, float]:
+        plant, obs, drive, h = chain_parts(defaults())
+        if tol is not None:
+            obs.c_struct.held.tol = tol
+        n, rows, reused = 15_000, [], 0.0
+        for k in range(n):
+            ux = drive.ux(k * h)
+            z = plant.output_row()
+            obs.step(ux, 0.0, z[0], z[2], h)
+            plant.step(ux, 0.0, 1.0 if k * h >= 0.05 else 0.0, h)
+            rows.append((obs.estimates()["Omega_z"], obs.sigmas()["Omega_z"]))
+            if k == n // 2:
+                reused = obs.c_struct.held.reused
+        return np.array(rows), (obs.c_struct.held.reused - reused) / (n - n // 2 - 1)
+
+    exact, none = run(0.0)
+    got, share = run(None)
+    assert none == 0.0
+    assert share > 0.8, share
+    late = slice(2500, None)
+    assert np.max(np.abs(got[late, 0] - exact[late, 0]) / exact[late, 1]) <= 1e-5

@@ -47,13 +47,53 @@ void obs_noise_variances(GyroObserver *o, double z1, double z2, double h, double
     if (!(sigma[0] > 0.0 && sigma[1] > 0.0)) o->nu2_mass += w * (1.0 - o->nu2_mass);
 }
 
+/* 1 when x and P's diagonal from `rows` on (to n) are zero, so that (P a covariance) the
+ * rows and columns there are zero: the correction leaves them zero (their gain is zero)
+ * and need not compute them. The prediction makes them so (model_rows); a restored P
+ * with a zero variance and a nonzero covariance is no covariance (the monitor's Cholesky
+ * check loses it). */
+static int zero_beyond(int rows, int n, const double *x, const double P[NMAX][NMAX]) {
+    for (int i = rows; i < n; i++)
+        if (x[i] != 0.0 || P[i][i] != 0.0) return 0;
+    return 1;
+}
+
+/* (I - K H) P (I - K H)' + K Rc K' in place, O(n^2) (H picks i0, i1 with gains g0, g1),
+ * symmetric to the last bit, for P's first n rows over its first `cols` columns (the rest
+ * zeros, kept zeros). Called with a constant cols, so that each row's loop has a fixed
+ * length the compiler unrolls and vectorizes; every element's expression as before. */
+FIXED_LENGTH void joseph(double P[NMAX][NMAX], int n, const int cols, int i0, int i1,
+                         double g0, double g1, const double K0[NMAX], const double K1[NMAX],
+                         const double Rc[2]) {
+    double M[NMAX][NMAX];
+    for (int i = 0; i < n; i++) {
+        const double k0 = K0[i] * g0, k1 = K1[i] * g1;
+        for (int j = 0; j < cols; j++) M[i][j] = P[i][j] - (k0 * P[i0][j] + k1 * P[i1][j]);
+    }
+    for (int i = 0; i < n; i++) {
+        const double m0 = M[i][i0] * g0, m1 = M[i][i1] * g1;
+        const double kr0 = K0[i] * Rc[0], kr1 = K1[i] * Rc[1];
+        for (int j = 0; j < cols; j++)
+            P[i][j] = (M[i][j] - (m0 * K0[j] + m1 * K1[j])) + (kr0 * K0[j] + kr1 * K1[j]);
+    }
+    for (int i = 0; i < n; i++) /* symmetric to the last bit */
+        for (int j = 0; j < i; j++) {
+            const double v = 0.5 * (P[i][j] + P[j][i]);
+            P[i][j] = v;
+            P[j][i] = v;
+        }
+}
+
 /* Measurement update (eq. 8) of one filter's x, P in place: x += K (z - H x), K from R,
  * P by Joseph with Rc, (I - K H) P (I - K H)' + K Rc K' (symmetrized: the covariance of
- * that gain's error when the noise is Rc), or P - K H P (the optimal gain's, Rc unused). Returns the NIS of its innovation (2 dof; < 0: S singular,
- * no update) and *logdet = log det S. */
-double obs_correct_with(const GyroObserver *o, double *x, double P[NMAX][NMAX], double z1,
-                        double z2, const double R[2], const double Rc[2], double *logdet) {
-    const int n = o->n, i0 = o->i0, i1 = i0 + 2;
+ * that gain's error when the noise is Rc), or P - K H P (the optimal gain's, Rc unused).
+ * Rows past `rows` (model_rows) are skipped when they are zero: the same numbers (a zero's
+ * sign aside). Returns the NIS of its innovation (2 dof; < 0: S singular, no update) and
+ * *logdet = log det S. */
+double obs_correct_with(const GyroObserver *o, double *x, double P[NMAX][NMAX], int rows,
+                        double z1, double z2, const double R[2], const double Rc[2],
+                        double *logdet) {
+    const int i0 = o->i0, i1 = i0 + 2;
     const double g0 = o->hgain[0], g1 = o->hgain[1];
     const double nu0 = z1 - g0 * x[i0], nu1 = z2 - g1 * x[i1];
     const double a = P[i0][i0] * g0 * g0 + R[0];
@@ -63,6 +103,8 @@ double obs_correct_with(const GyroObserver *o, double *x, double P[NMAX][NMAX], 
     const double det = a * d - b_ * c;
     *logdet = 0.0;
     if (!(det > 0.0 && a > 0.0)) return -1.0;
+    const int n = rows < o->n && zero_beyond(rows, o->n, x, (const double(*)[NMAX])P) ? rows
+                                                                                    : o->n;
     const double s00 = d / det, s01 = -b_ / det, s10 = -c / det, s11 = a / det;
     /* the gain's two columns K0, K1 and P H' as separate rows: the loops over j below run
      * over contiguous memory (vectorized) with every expression as it was */
@@ -76,26 +118,11 @@ double obs_correct_with(const GyroObserver *o, double *x, double P[NMAX][NMAX], 
         K1[i] = PHt0[i] * s01 + PHt1[i] * s11;
         x[i] = x[i] + (K0[i] * nu0 + K1[i] * nu1);
     }
-    if (o->tuning.joseph) { /* (I - K H) P (I - K H)' + K R K', O(n^2): H picks i0, i1 */
-        /* rows over all NMAX columns: a fixed length the compiler vectorizes (columns past
-         * n are zeros, kept zeros); every element's expression as before */
-        double M[NMAX][NMAX];
-        for (int i = 0; i < n; i++) {
-            const double k0 = K0[i] * g0, k1 = K1[i] * g1;
-            for (int j = 0; j < NMAX; j++) M[i][j] = P[i][j] - (k0 * P[i0][j] + k1 * P[i1][j]);
-        }
-        for (int i = 0; i < n; i++) {
-            const double m0 = M[i][i0] * g0, m1 = M[i][i1] * g1;
-            const double kr0 = K0[i] * Rc[0], kr1 = K1[i] * Rc[1];
-            for (int j = 0; j < NMAX; j++)
-                P[i][j] = (M[i][j] - (m0 * K0[j] + m1 * K1[j])) + (kr0 * K0[j] + kr1 * K1[j]);
-        }
-        for (int i = 0; i < n; i++) /* symmetric to the last bit */
-            for (int j = 0; j < i; j++) {
-                const double v = 0.5 * (P[i][j] + P[j][i]);
-                P[i][j] = v;
-                P[j][i] = v;
-            }
+    if (o->tuning.joseph) {
+        if (n <= IOM + 1) /* a rate model of order 1: its columns past IOM + 1 are zeros */
+            joseph(P, n, IOM + 1, i0, i1, g0, g1, K0, K1, Rc);
+        else
+            joseph(P, n, NMAX, i0, i1, g0, g1, K0, K1, Rc);
     } else {
         for (int i = 0; i < n; i++)
             for (int j = 0; j < n; j++) P[i][j] -= K0[i] * PHt0[j] + K1[i] * PHt1[j];

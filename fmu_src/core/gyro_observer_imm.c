@@ -104,8 +104,11 @@ static int uniform_switching(const GyroObserver *o, double *stay, double *leave)
  * (the same mixture in exact arithmetic: sum_i w_i (P_i + d_i d_i') with d_i = e_i -
  * a_j e_j; every term positive semi-definite, as before). obs_set_rates always builds Pi
  * so (a restored state's too: it is rebuilt at the next step); a Pi set otherwise
- * through the struct takes the general sum. */
-void gyro_observer_mix(GyroObserver *o) {
+ * through the struct takes the general sum. With for_predict, the uniform switching's
+ * filters are mixed only in their model_rows: the prediction that follows sets the rest
+ * to zero from any finite values, so its results are the same numbers (a zero's sign
+ * aside). */
+static void mix(GyroObserver *o, int for_predict) {
     const int M = o->n_models, n = o->n;
     if (M == 1) {
         o->c[0] = 1.0;
@@ -136,10 +139,11 @@ void gyro_observer_mix(GyroObserver *o) {
         const double own = (stay - leave) * o->mu[j];
         o->c[j] = own + leave * total;
         const double aj = own / o->c[j], bj = 1.0 - aj, ab = aj * bj;
+        const int rows = for_predict ? model_rows(o, j) : n;
         double e[NMAX] = {0.0};
-        for (int a = 0; a < n; a++) e[a] = o->xs[j][a] - xbar[a];
+        for (int a = 0; a < rows; a++) e[a] = o->xs[j][a] - xbar[a];
         double (*P)[NMAX] = o->Ps[j];
-        for (int a = 0; a < n; a++) { /* the lower triangle, mirrored: symmetric bits */
+        for (int a = 0; a < rows; a++) { /* the lower triangle, mirrored: symmetric bits */
             const double ea = ab * e[a];
             for (int b = 0; b <= a; b++) {
                 const double v = aj * P[a][b] + bj * T[a][b] + ea * e[b];
@@ -150,6 +154,8 @@ void gyro_observer_mix(GyroObserver *o) {
         }
     }
 }
+
+void gyro_observer_mix(GyroObserver *o) { mix(o, 0); }
 
 void gyro_observer_combine(const GyroObserver *o, const double *w, double *x,
                            double P[GYRO_OBS_NMAX][GYRO_OBS_NMAX]) {
@@ -168,7 +174,8 @@ void obs_imm_update(GyroObserver *o, double z1, double z2, double h, int with_P)
     const int M = o->n_models;
     for (int j = 0; j < M; j++) {
         double logdet;
-        const double nis = obs_correct_with(o, o->xs[j], o->Ps[j], z1, z2, R, Rc, &logdet);
+        const double nis = obs_correct_with(o, o->xs[j], o->Ps[j], model_rows(o, j), z1, z2, R,
+                                            Rc, &logdet);
         ll[j] = nis >= 0.0 ? -0.5 * (nis + logdet) : 0.0;
     }
     if (M > 1) {
@@ -201,7 +208,10 @@ void obs_imm_update(GyroObserver *o, double z1, double z2, double h, int with_P)
  * parameters' block is P's, and a parameter row of B is a column of A (P is symmetric bit
  * for bit, so A F' and (F P)' agree there to the bit). Every entry is the same sum, in
  * the same order, as the full products (F P) F' symmetrized by halves: the bits of the
- * unstructured propagation (tests/test_native_observer.py, against the numba oracle). */
+ * unstructured propagation (tests/test_native_observer.py, against the numba oracle).
+ * The rate block's rows and columns past the model's order ro are zero (Fr's rows there
+ * are zero, and its columns there multiply nothing): they are set, not summed; every other
+ * sum drops only Fr's zero terms, so the numbers are the same (a zero's sign aside). */
 static inline double times_plant_row(const double *a, const double Phi[4], const double S[8]) {
     double acc = 0.0; /* sum_c a[c] F[j][c] for a plant row j of F: Phi, then S */
     for (int c = 0; c < 4; c++) acc += a[c] * Phi[c];
@@ -209,10 +219,25 @@ static inline double times_plant_row(const double *a, const double Phi[4], const
     return acc;
 }
 
+/* A = F P's plant rows over P's first `cols` columns (the rest zeros). Called with a
+ * constant cols: the innermost loop has a fixed length the compiler unrolls and
+ * vectorizes. */
+FIXED_LENGTH void plant_rows_of_FP(const double P[NMAX][NMAX], const double Phi[4][4],
+                                  const double S[4][8], const int cols, double A[4][NMAX]) {
+    for (int i = 0; i < 4; i++) {
+        double acc[NMAX] = {0.0};
+        for (int c = 0; c < 4; c++)
+            for (int k = 0; k < cols; k++) acc[k] += Phi[i][c] * P[c][k];
+        for (int c = 0; c < 8; c++)
+            for (int k = 0; k < cols; k++) acc[k] += S[i][c] * P[4 + c][k];
+        memcpy(A[i], acc, sizeof acc);
+    }
+}
+
 static void predict_about(const GyroObserver *o, const double *xbar, const double s1[4],
                           const double Phi[4][4], const double S[4][8], double *x,
                           double P[NMAX][NMAX], const double Fr[][GYRO_OBS_RMAX],
-                          const double Qr[][GYRO_OBS_RMAX], double q0, double q1) {
+                          const double Qr[][GYRO_OBS_RMAX], int ro, double q0, double q1) {
     const int n = o->n, r = n - IOM;
     double d[12], om[GYRO_OBS_RMAX], A[4][NMAX], Ar[GYRO_OBS_RMAX][NMAX];
     for (int c = 0; c < 12; c++) d[c] = x[c] - xbar[c];
@@ -224,24 +249,20 @@ static void predict_about(const GyroObserver *o, const double *xbar, const doubl
     }
     for (int a = 0; a < r; a++) {
         double acc = 0.0;
-        for (int c = 0; c < r; c++) acc += Fr[a][c] * x[IOM + c];
-        om[a] = acc;
+        for (int c = 0; c < ro; c++) acc += Fr[a][c] * x[IOM + c];
+        om[a] = a < ro ? acc : 0.0;
     }
     for (int a = 0; a < r; a++) x[IOM + a] = om[a];
     /* A = F P, the plant's and the rate block's rows. The innermost index runs over a whole
      * row of NMAX (a fixed length the compiler unrolls and vectorizes); columns past n are
      * computed and not used. */
-    for (int i = 0; i < 4; i++) {
-        double acc[NMAX] = {0.0};
-        for (int c = 0; c < 4; c++)
-            for (int k = 0; k < NMAX; k++) acc[k] += Phi[i][c] * P[c][k];
-        for (int c = 0; c < 8; c++)
-            for (int k = 0; k < NMAX; k++) acc[k] += S[i][c] * P[4 + c][k];
-        memcpy(A[i], acc, sizeof acc);
-    }
+    if (ro == 1) /* a rate model of order 1: A's columns past IOM + 1 are not read */
+        plant_rows_of_FP(P, Phi, S, IOM + 1, A);
+    else
+        plant_rows_of_FP(P, Phi, S, NMAX, A);
     for (int a = 0; a < r; a++) {
         double acc[NMAX] = {0.0};
-        for (int c = 0; c < r; c++)
+        for (int c = 0; c < ro && a < ro; c++)
             for (int k = 0; k < NMAX; k++) acc[k] += Fr[a][c] * P[IOM + c][k];
         memcpy(Ar[a], acc, sizeof acc);
     }
@@ -252,17 +273,18 @@ static void predict_about(const GyroObserver *o, const double *xbar, const doubl
     for (int i = 0; i < 4; i++)
         for (int j = 0; j < 4; j++) Bpp[i][j] = times_plant_row(A[i], Phi[j], S[j]);
     for (int a = 0; a < r; a++)
-        for (int j = 0; j < 4; j++) Brp[a][j] = times_plant_row(Ar[a], Phi[j], S[j]);
+        for (int j = 0; j < 4; j++)
+            Brp[a][j] = a < ro ? times_plant_row(Ar[a], Phi[j], S[j]) : 0.0;
     for (int j = 0; j < 4; j++)
         for (int a = 0; a < r; a++) {
             double acc = 0.0;
-            for (int c = 0; c < r; c++) acc += A[j][IOM + c] * Fr[a][c];
+            for (int c = 0; c < ro && a < ro; c++) acc += A[j][IOM + c] * Fr[a][c];
             Bpr[j][a] = acc;
         }
     for (int a = 0; a < r; a++)
         for (int b = 0; b < r; b++) {
             double acc = 0.0;
-            for (int c = 0; c < r; c++) acc += Ar[a][IOM + c] * Fr[b][c];
+            for (int c = 0; c < ro && a < ro && b < ro; c++) acc += Ar[a][IOM + c] * Fr[b][c];
             Brr[a][b] = acc + Qr[a][b];
         }
     const double q[4] = {q0, q0, q1, q1};
@@ -307,14 +329,15 @@ void obs_imm_predict(GyroObserver *o, double ux, double uy, double h) {
     double s1[4], Phi[4][4], S[4][8], xbar[NMAX];
     obs_linearize(o, o->x, ux, uy, h, s1, Phi, S);
     obs_refit_predict(o, (const double(*)[4])Phi, (const double(*)[8])S);
-    gyro_observer_mix(o);
+    mix(o, 1);
     const double a0 = STATE_NOISE * o->peak[0] / o->hgain[0];
     const double a1 = STATE_NOISE * o->peak[1] / o->hgain[1];
     memcpy(xbar, o->x, sizeof xbar); /* the linearization point is replaced only below */
     for (int j = 0; j < o->n_models; j++)
         predict_about(o, xbar, s1, Phi, S, o->xs[j], o->Ps[j],
                       (const double(*)[GYRO_OBS_RMAX])o->Fr[j],
-                      (const double(*)[GYRO_OBS_RMAX])o->Qr[j], a0 * a0, a1 * a1);
+                      (const double(*)[GYRO_OBS_RMAX])o->Qr[j], model_rows(o, j) - IOM, a0 * a0,
+                      a1 * a1);
     /* the combined P: only what the next correction and the outputs read (the whole of it
      * is made where it is read: gyro_observer_complete_covariance) */
     if (o->n_models > 1) {

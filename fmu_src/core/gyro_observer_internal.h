@@ -94,11 +94,13 @@ static const double REFIT_TAU = 0.02;
 static const double REFIT_WARN = 40.0;
 /* Held-step reuse (gyro_observer_held.c): the maps are rebuilt once the linearization
  * point moves so far that ||dA_aug h||_inf > HELD_TOL. s1 and Phi are corrected to first
- * order (O(HELD_TOL^2) left); S is taken at the maps' point, O(HELD_TOL) relative off, and
- * enters only the covariance. Measured effect on every output <= 2.1e-11 of its peak, on
- * Omega_hat 1.8e-8 of its sigma (docs/results/performance.md). Maps are built after
+ * order (O(HELD_TOL^2) left: 1e-14); S is taken at the maps' point, O(HELD_TOL) relative
+ * off, and enters only the covariance. Measured effect on Omega_hat at most 1.5e-6 of its
+ * sigma (GyroSensor's presets at 20 us, 1 s), every output of the 5 us chain 2.5e-9 of its
+ * peak (docs/results/performance.md). 1e-8 reused 0.2-78 % of GyroSensor's first second
+ * (its converged parameters move ~3e-9 a step there), 1e-7 66-96 %. Maps are built after
  * HELD_STEADY steps within HELD_TOL of one point (no builds while the filter converges). */
-static const double HELD_TOL = 1e-8;
+static const double HELD_TOL = 1e-7;
 static const double HELD_STEADY = 8.0;
 /* kxx, kyy and 1/m must stay within this factor of their initial guesses. */
 static const double RATIO = 100.0;
@@ -107,6 +109,14 @@ static const double RATIO = 100.0;
 #include "gyro_tables.h"
 #define FACTORIAL GYRO_FACTORIAL
 
+/* A function called with a constant argument that sizes its innermost loops, expanded at
+ * each call so that each has loops of a fixed length (unrolled, vectorized). */
+#if defined(__GNUC__) || defined(__clang__)
+#define FIXED_LENGTH static inline __attribute__((always_inline))
+#else
+#define FIXED_LENGTH static inline
+#endif
+
 static inline double dmax(double a, double b) { return a >= b ? a : b; }
 static inline double dmin(double a, double b) { return a <= b ? a : b; }
 /* 1 when all count numbers from v on are finite (restored states, held-step maps). */
@@ -114,6 +124,16 @@ static inline int all_finite(const double *v, size_t count) {
     for (size_t i = 0; i < count; i++)
         if (!isfinite(v[i])) return 0;
     return 1;
+}
+
+/* The rows of model j's filter that its rate model can make nonzero: the plant, the
+ * parameters and the derivatives of Omega_z up to its order (Fr's unit diagonal). Its
+ * prediction sets the rows and columns past them to zero (Fr's rows there are zero), so
+ * the mixing before it and the correction after it need not compute them. */
+static inline int model_rows(const GyroObserver *o, int j) {
+    int rows = IOM;
+    while (rows < o->n && o->Fr[j][rows - IOM][rows - IOM] != 0.0) rows++;
+    return rows;
 }
 
 /* gyro_observer_held.c */
@@ -125,8 +145,9 @@ const char *obs_held_restored(GyroObserver *o);
 /* gyro_observer_correct.c */
 void obs_noise_variances(GyroObserver *o, double z1, double z2, double h, double R[2],
                          double Rc[2], double nu[2]);
-double obs_correct_with(const GyroObserver *o, double *x, double P[NMAX][NMAX], double z1,
-                        double z2, const double R[2], const double Rc[2], double *logdet);
+double obs_correct_with(const GyroObserver *o, double *x, double P[NMAX][NMAX], int rows,
+                        double z1, double z2, const double R[2], const double Rc[2],
+                        double *logdet);
 int obs_innovation_covariance(const GyroObserver *o, const double R[2], double S[4]);
 void obs_monitor_innovations(GyroObserver *o, const double nu[2], const double R[2]);
 
