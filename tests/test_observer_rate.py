@@ -315,3 +315,38 @@ def test_a_restored_bank_scale_outside_its_range_is_refused_by_the_core():
     assert problem(math.log(0.5)) == ""
     for bad in (math.log(20.0), math.log(1e-4), math.nan):
         assert "a moving bank's scale outside its range" in problem(bad), bad
+
+
+def test_a_restored_covariance_not_symmetric_to_the_bit_is_refused_by_the_core():
+    """Every step keeps each rate model's P symmetric to the bit, and the mixing and the
+    combined P rely on it (each entry's expression is the same in (a, b) and (b, a), so no
+    triangle is mirrored): a restored P whose two halves differ in one entry, by one ulp,
+    is refused by name; the same P made symmetric goes on."""
+    from gyro_fmu.estimation.observer import Params, c_tuning
+    from gyro_fmu.model.plant import GyroPlantModel, MeasurementNoise
+
+    p = scenario("default").params
+    tun = ObserverTuning(rate_model=0)
+    obs = GyroStateObserver(p, 0.0, 1, tun)
+    plant = GyroPlantModel(p, MeasurementNoise(x=1e-12, y=1e-12), 1)
+    for k in range(50):  # a few steps: off-diagonal covariances that are not zero
+        ux = 1e-7 * math.sin(2 * math.pi * 4000 * k * 5e-6)
+        z = plant.output_row()
+        obs.step(ux, 0.0, float(z[0]), float(z[2]), 5e-6)
+        plant.step(ux, 0.0, 1.0, 5e-6)
+    guess = Params(*(float(getattr(p, n)) for n, _ in Params._fields_))
+
+    def problem() -> str:
+        code = obs._lib.gyro_observer_restored_problem(
+            obs._ref, ctypes.byref(guess), ctypes.c_double(0.0), ctypes.c_int(1),
+            ctypes.byref(c_tuning(tun)), obs._msg, ctypes.c_size_t(len(obs._msg)))
+        return obs._msg.value.decode() if code else ""
+
+    assert problem() == ""
+    Ps = obs._c.Ps
+    v = Ps[3][5][1]
+    assert v != 0.0 and Ps[3][1][5] == v
+    Ps[3][5][1] = math.nextafter(v, math.inf)
+    assert "a rate model's covariance that is not symmetric" in problem()
+    Ps[3][1][5] = Ps[3][5][1]
+    assert problem() == ""

@@ -390,9 +390,13 @@ static const char *restored_state_problem(const GyroObserver *o) {
             return "a combined estimate or covariance that is not finite";
     for (int j = 0; j < M; j++) {
         if (!all_finite(o->xs[j], (size_t)n)) return "a rate model's estimate that is not finite";
-        for (int i = 0; i < n; i++)
+        for (int i = 0; i < n; i++) {
             if (!all_finite(o->Ps[j][i], (size_t)n))
                 return "a rate model's covariance that is not finite";
+            for (int k = 0; k < i; k++) /* every step keeps it so to the bit */
+                if (o->Ps[j][i][k] != o->Ps[j][k][i])
+                    return "a rate model's covariance that is not symmetric";
+        }
         if (!(o->mu[j] >= 0.0 && o->mu[j] <= 1.0 && o->c[j] >= 0.0 && o->c[j] <= 1.0))
             return "model probabilities outside [0, 1]";
     }

@@ -7,11 +7,10 @@
 static void mixture_mean(const GyroObserver *o, const double xs[][NMAX], const double *w,
                          double *x) {
     const int M = o->n_models, n = o->n;
-    for (int i = 0; i < n; i++) {
-        double acc = 0.0;
-        for (int j = 0; j < M; j++) acc += w[j] * xs[j][i];
-        x[i] = acc;
-    }
+    double acc[NMAX] = {0.0}; /* each row's sum over j in order, all rows at once */
+    for (int j = 0; j < M; j++)
+        for (int i = 0; i < NMAX; i++) acc[i] += w[j] * xs[j][i];
+    memcpy(x, acc, n * sizeof(double));
 }
 
 /* x, P = the mixture of the filters (xs, Ps) with weights w (eqs. 11.6.6-21, -22). */
@@ -26,9 +25,10 @@ static void combine(const GyroObserver *o, const double xs[][NMAX],
     }
     /* P[a][b] = sum_j w_j (Ps_j[a][b] + d_j[a] d_j[b]), d_j = xs_j - x, summed over j in
      * order for every b at once. The inner loop runs over all NMAX columns (a fixed length
-     * the compiler unrolls and vectorizes; it left a triangle's varying one scalar): the
-     * row's upper part is computed and dropped, the lower part mirrored, so the bits are
-     * the triangle's (columns past n hold what the filters' rows hold there, finite). */
+     * the compiler unrolls and vectorizes; it left a triangle's varying one scalar; columns
+     * past n hold what the filters' rows hold there, finite). The filters' P are symmetric
+     * to the bit (restored_state_problem checks a restored one), and so is each entry's
+     * expression in (a, b), so the rows make a P symmetric to the bit. */
     double d[GYRO_OBS_MMAX][NMAX] = {{0.0}};
     for (int j = 0; j < M; j++)
         for (int a = 0; a < n; a++) d[j][a] = xs[j][a] - x[a];
@@ -38,10 +38,7 @@ static void combine(const GyroObserver *o, const double xs[][NMAX],
             const double wj = w[j], dja = d[j][a], *Pja = Ps[j][a], *dj = d[j];
             for (int b = 0; b < NMAX; b++) acc[b] += wj * (Pja[b] + dja * dj[b]);
         }
-        for (int b = 0; b <= a; b++) {
-            P[a][b] = acc[b];
-            P[b][a] = acc[b];
-        }
+        memcpy(P[a], acc, n * sizeof(double));
     }
 }
 
@@ -94,6 +91,19 @@ static int uniform_switching(const GyroObserver *o, double *stay, double *leave)
     return 1;
 }
 
+/* P = aj P + bj T + ab e e' over P's first `rows` rows and `cols` columns (a constant:
+ * fixed-length rows the compiler vectorizes). Each entry is the same expression of (a, b)
+ * and (b, a) (ab (e_a e_b), not (ab e_a) e_b), so a symmetric P and T give a P symmetric
+ * to the bit without a mirrored triangle. */
+FIXED_LENGTH void mix_rows(double P[NMAX][NMAX], const double T[NMAX][NMAX],
+                           const double e[NMAX], double aj, double bj, double ab, int rows,
+                           const int cols) {
+    for (int a = 0; a < rows; a++) {
+        const double ea = e[a];
+        for (int b = 0; b < cols; b++) P[a][b] = aj * P[a][b] + bj * T[a][b] + ab * (ea * e[b]);
+    }
+}
+
 /* Mixing (eqs. 11.6.6-6 to -11): model j starts from the mixture of the filters with
  * weights Pi[i][j] mu_i / c_j, c_j = sum_i Pi[i][j] mu_i (the predicted probabilities).
  * For the uniform switching of obs_set_rates (stay on the diagonal, leave off it) the
@@ -142,16 +152,11 @@ static void mix(GyroObserver *o, int for_predict) {
         const int rows = for_predict ? model_rows(o, j) : n;
         double e[NMAX] = {0.0};
         for (int a = 0; a < rows; a++) e[a] = o->xs[j][a] - xbar[a];
-        double (*P)[NMAX] = o->Ps[j];
-        for (int a = 0; a < rows; a++) { /* the lower triangle, mirrored: symmetric bits */
-            const double ea = ab * e[a];
-            for (int b = 0; b <= a; b++) {
-                const double v = aj * P[a][b] + bj * T[a][b] + ea * e[b];
-                P[a][b] = v;
-                P[b][a] = v;
-            }
-            o->xs[j][a] = aj * o->xs[j][a] + bj * xbar[a];
-        }
+        if (rows <= IOM + 1)
+            mix_rows(o->Ps[j], (const double(*)[NMAX])T, e, aj, bj, ab, rows, IOM + 1);
+        else
+            mix_rows(o->Ps[j], (const double(*)[NMAX])T, e, aj, bj, ab, rows, NMAX);
+        for (int a = 0; a < rows; a++) o->xs[j][a] = aj * o->xs[j][a] + bj * xbar[a];
     }
 }
 
@@ -212,11 +217,12 @@ void obs_imm_update(GyroObserver *o, double z1, double z2, double h, int with_P)
  * The rate block's rows and columns past the model's order ro are zero (Fr's rows there
  * are zero, and its columns there multiply nothing): they are set, not summed; every other
  * sum drops only Fr's zero terms, so the numbers are the same (a zero's sign aside). */
-static inline double times_plant_row(const double *a, const double Phi[4], const double S[8]) {
-    double acc = 0.0; /* sum_c a[c] F[j][c] for a plant row j of F: Phi, then S */
-    for (int c = 0; c < 4; c++) acc += a[c] * Phi[c];
-    for (int c = 0; c < 8; c++) acc += a[4 + c] * S[c];
-    return acc;
+static inline void times_plant_rows(const double *a, const double FpT[12][4], double out[4]) {
+    double acc[4] = {0.0}; /* sum_c a[c] F[j][c] over the plant rows j of F (Phi, then S),
+                            * FpT[c][j] = F[j][c]: the four sums side by side, each in order */
+    for (int c = 0; c < 12; c++)
+        for (int j = 0; j < 4; j++) acc[j] += a[c] * FpT[c][j];
+    memcpy(out, acc, sizeof acc);
 }
 
 /* A = F P's plant rows over P's first `cols` columns (the rest zeros). Called with a
@@ -235,7 +241,8 @@ FIXED_LENGTH void plant_rows_of_FP(const double P[NMAX][NMAX], const double Phi[
 }
 
 static void predict_about(const GyroObserver *o, const double *xbar, const double s1[4],
-                          const double Phi[4][4], const double S[4][8], double *x,
+                          const double Phi[4][4], const double S[4][8],
+                          const double FpT[12][4], double *x,
                           double P[NMAX][NMAX], const double Fr[][GYRO_OBS_RMAX],
                           const double Qr[][GYRO_OBS_RMAX], int ro, double q0, double q1) {
     const int n = o->n, r = n - IOM;
@@ -271,10 +278,10 @@ static void predict_about(const GyroObserver *o, const double *xbar, const doubl
     double Bpp[4][4], Brp[GYRO_OBS_RMAX][4], Bpr[4][GYRO_OBS_RMAX];
     double Brr[GYRO_OBS_RMAX][GYRO_OBS_RMAX];
     for (int i = 0; i < 4; i++)
-        for (int j = 0; j < 4; j++) Bpp[i][j] = times_plant_row(A[i], Phi[j], S[j]);
+        times_plant_rows(A[i], FpT, Bpp[i]);
     for (int a = 0; a < r; a++)
-        for (int j = 0; j < 4; j++)
-            Brp[a][j] = a < ro ? times_plant_row(Ar[a], Phi[j], S[j]) : 0.0;
+        if (a < ro) times_plant_rows(Ar[a], FpT, Brp[a]);
+        else memset(Brp[a], 0, sizeof Brp[a]);
     for (int j = 0; j < 4; j++)
         for (int a = 0; a < r; a++) {
             double acc = 0.0;
@@ -333,8 +340,13 @@ void obs_imm_predict(GyroObserver *o, double ux, double uy, double h) {
     const double a0 = STATE_NOISE * o->peak[0] / o->hgain[0];
     const double a1 = STATE_NOISE * o->peak[1] / o->hgain[1];
     memcpy(xbar, o->x, sizeof xbar); /* the linearization point is replaced only below */
+    double FpT[12][4]; /* the plant rows of F, [Phi S], transposed: shared by the models */
+    for (int j = 0; j < 4; j++) {
+        for (int c = 0; c < 4; c++) FpT[c][j] = Phi[j][c];
+        for (int c = 0; c < 8; c++) FpT[4 + c][j] = S[j][c];
+    }
     for (int j = 0; j < o->n_models; j++)
-        predict_about(o, xbar, s1, Phi, S, o->xs[j], o->Ps[j],
+        predict_about(o, xbar, s1, Phi, S, (const double(*)[4])FpT, o->xs[j], o->Ps[j],
                       (const double(*)[GYRO_OBS_RMAX])o->Fr[j],
                       (const double(*)[GYRO_OBS_RMAX])o->Qr[j], model_rows(o, j) - IOM, a0 * a0,
                       a1 * a1);

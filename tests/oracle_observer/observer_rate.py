@@ -187,9 +187,8 @@ def mix(xs, Ps, mu, Pi, c):  # pragma: no cover
             for a in range(n):
                 e[a] = xs[j, a] - xbar[a]
             for a in range(n):
-                ea = ab * e[a]
-                for b in range(a + 1):
-                    v = aj * Ps[j, a, b] + bj * T[a, b] + ea * e[b]
+                for b in range(a + 1):  # ab (e_a e_b): the same of (a, b) and (b, a)
+                    v = aj * Ps[j, a, b] + bj * T[a, b] + ab * (e[a] * e[b])
                     Ps[j, a, b] = v
                     Ps[j, b, a] = v
                 xs[j, a] = aj * xs[j, a] + bj * xbar[a]
