@@ -65,16 +65,17 @@ static int zero_beyond(int rows, int n, const double *x, const double P[NMAX][NM
 FIXED_LENGTH void joseph(double P[NMAX][NMAX], int n, const int cols, int i0, int i1,
                          double g0, double g1, const double K0[NMAX], const double K1[NMAX],
                          const double Rc[2]) {
-    double M[NMAX][NMAX];
-    for (int i = 0; i < n; i++) {
+    double P0[NMAX], P1[NMAX]; /* the measured rows before the update: every row reads them */
+    memcpy(P0, P[i0], sizeof P0);
+    memcpy(P1, P[i1], sizeof P1);
+    for (int i = 0; i < n; i++) { /* M = (I - K H) P a row at a time, then that row of P */
         const double k0 = K0[i] * g0, k1 = K1[i] * g1;
-        for (int j = 0; j < cols; j++) M[i][j] = P[i][j] - (k0 * P[i0][j] + k1 * P[i1][j]);
-    }
-    for (int i = 0; i < n; i++) {
-        const double m0 = M[i][i0] * g0, m1 = M[i][i1] * g1;
+        double M[NMAX];
+        for (int j = 0; j < cols; j++) M[j] = P[i][j] - (k0 * P0[j] + k1 * P1[j]);
+        const double m0 = M[i0] * g0, m1 = M[i1] * g1;
         const double kr0 = K0[i] * Rc[0], kr1 = K1[i] * Rc[1];
         for (int j = 0; j < cols; j++)
-            P[i][j] = (M[i][j] - (m0 * K0[j] + m1 * K1[j])) + (kr0 * K0[j] + kr1 * K1[j]);
+            P[i][j] = (M[j] - (m0 * K0[j] + m1 * K1[j])) + (kr0 * K0[j] + kr1 * K1[j]);
     }
     for (int i = 0; i < n; i++) /* symmetric to the last bit */
         for (int j = 0; j < i; j++) {
@@ -109,9 +110,9 @@ double obs_correct_with(const GyroObserver *o, double *x, double P[NMAX][NMAX], 
     /* the gain's two columns K0, K1 and P H' as separate rows: the loops over j below run
      * over contiguous memory (vectorized) with every expression as it was */
     double PHt0[NMAX] = {0.0}, PHt1[NMAX] = {0.0}, K0[NMAX] = {0.0}, K1[NMAX] = {0.0};
-    for (int i = 0; i < n; i++) {
-        PHt0[i] = P[i][i0] * g0;
-        PHt1[i] = P[i][i1] * g1;
+    for (int i = 0; i < n; i++) { /* P[i][i0] is P[i0][i]: a row, P symmetric to the bit */
+        PHt0[i] = P[i0][i] * g0;
+        PHt1[i] = P[i1][i] * g1;
     }
     for (int i = 0; i < n; i++) {
         K0[i] = PHt0[i] * s00 + PHt1[i] * s10;
