@@ -350,3 +350,37 @@ def test_a_restored_covariance_not_symmetric_to_the_bit_is_refused_by_the_core()
     assert "a rate model's covariance that is not symmetric" in problem()
     Ps[3][1][5] = Ps[3][5][1]
     assert problem() == ""
+
+
+@pytest.mark.parametrize("change, words", [
+    ("asymmetric", "a rate model's covariance that is not symmetric"),
+    ("rate_scale", "a moving bank's scale outside its range"),
+    ("probability", "model probabilities outside [0, 1]"),
+])
+def test_the_library_set_state_refuses_what_the_core_refuses(change: str, words: str):
+    """The library's set_state runs the core's checks of a restored state (those an FMU's
+    restore runs): a saved state edited out of what any run can hold is refused by name,
+    and the observer it was to replace is left as it was."""
+    from gyro_fmu.model.plant import GyroPlantModel, MeasurementNoise
+
+    p = scenario("default").params
+    obs = GyroStateObserver(p, 0.0, 1, ObserverTuning(rate_model=4))
+    plant = GyroPlantModel(p, MeasurementNoise(x=1e-12, y=1e-12), 1)
+    for k in range(50):
+        ux = 1e-7 * math.sin(2 * math.pi * 4000 * k * 5e-6)
+        z = plant.output_row()
+        obs.step(ux, 0.0, float(z[0]), float(z[2]), 5e-6)
+        plant.step(ux, 0.0, 1.0, 5e-6)
+    state = obs.get_state()
+    GyroStateObserver(p, 0.0, 1, obs.tuning).set_state(state)  # as saved: restored
+    rf = state["rate_filters"]
+    if change == "asymmetric":
+        rf["P"][2][5][1] = math.nextafter(rf["P"][2][5][1], math.inf)
+    elif change == "rate_scale":
+        rf["rate_scale"] = math.log(100.0)
+    else:
+        rf["mu"][1] = 1.5
+    before = obs.get_state()
+    with pytest.raises(ValueError, match=words.replace("[", r"\[").replace("]", r"\]")):
+        obs.set_state(state)
+    assert obs.get_state() == before

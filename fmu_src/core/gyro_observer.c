@@ -452,8 +452,9 @@ int gyro_observer_restored_problem(GyroObserver *o, const GyroParams *guess,
     return 0;
 }
 
-int gyro_observer_held_restored(GyroObserver *o, char *msg, size_t n) {
-    const char *bad = obs_held_restored(o);
+int gyro_observer_state_restored(GyroObserver *o, char *msg, size_t n) {
+    const char *bad = restored_state_problem(o);
+    if (!bad) bad = obs_held_restored(o);
     if (n) msg[0] = '\0';
     if (!bad) return 0;
     snprintf(msg, n, "the saved observer holds %s: restore a state this observer saved", bad);

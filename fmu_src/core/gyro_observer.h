@@ -94,10 +94,12 @@ int gyro_observer_restored_problem(GyroObserver *o, const GyroParams *guess,
                                    double Omega_z_0, int pair, const GyroObserverTuning *tun,
                                    char *msg, size_t n);
 
-/* After the held-step cache's watch fields (valid, h, xc, steady, tol) were restored into a
- * set-up observer: rebuild its maps (the same bits as the saved ones). Nonzero, a message
- * and an empty cache when those fields are out of range. */
-int gyro_observer_held_restored(GyroObserver *o, char *msg, size_t n);
+/* After a saved state's fields were written into a set-up observer (the library's
+ * set_state): every field the step reads checked as an FMU's restored state is (finite,
+ * in range, each rate model's covariance symmetric to the bit), then the held-step
+ * cache's maps rebuilt from its watch fields (the same bits as the saved ones). Nonzero, a
+ * message and an empty cache when a field is out of its range. */
+int gyro_observer_state_restored(GyroObserver *o, char *msg, size_t n);
 
 /* Set the constants of the filter's scaling (wx, wy, theta0, scale) and what derives from
  * them (hgain, MgT, monitor limits); gyro_observer_init does it from the guess, a restored

@@ -49,7 +49,7 @@ FUNCTIONS = {
     "gyro_observer_step_warning": (c_int, [_O, _D, c_char_p, c_size_t]),
     "gyro_observer_set_scaling": (None, [_O, _D, _D, _DP, _DP]),
     "gyro_observer_set_step": (None, [_O, _D]),
-    "gyro_observer_held_restored": (c_int, [_O, c_char_p, c_size_t]),
+    "gyro_observer_state_restored": (c_int, [_O, c_char_p, c_size_t]),
     "gyro_observer_cholesky_ok": (c_int, [_DP, c_int]),
     "gyro_observer_factorial": (_D, [c_int]),
     "gyro_observer_beta": (_D, [c_int, c_int]),

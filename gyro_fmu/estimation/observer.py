@@ -421,9 +421,9 @@ class GyroStateObserver:
                     c.held.xc[:] = [float(v) for v in held[name]]
                 else:
                     setattr(c.held, name, float(held[name]))
-            if other._lib.gyro_observer_held_restored(ctypes.byref(c), other._msg,
-                                                      len(other._msg)):
-                raise ValueError(other._msg.value.decode())
+        if other._lib.gyro_observer_state_restored(ctypes.byref(c), other._msg,
+                                                   len(other._msg)):  # the core's checks
+            raise ValueError(other._msg.value.decode())
         self._c, self._ref, self._lib, self._msg = c, ctypes.byref(c), other._lib, other._msg
         self.tuning, self.measured_pair, self.rate_models = tuning, pair, other.rate_models
 
