@@ -317,23 +317,31 @@ def test_a_restored_bank_scale_outside_its_range_is_refused_by_the_core():
         assert "a moving bank's scale outside its range" in problem(bad), bad
 
 
+def _stepped_observer(p, tuning: ObserverTuning) -> GyroStateObserver:
+    """An observer of the gyro p after 50 steps of 5 us on a driven plant at 1 rad/s (its
+    filters' covariances have off-diagonal entries that are not zero)."""
+    from gyro_fmu.model.plant import GyroPlantModel, MeasurementNoise
+
+    obs = GyroStateObserver(p, 0.0, 1, tuning)
+    plant = GyroPlantModel(p, MeasurementNoise(x=1e-12, y=1e-12), 1)
+    for k in range(50):
+        ux = 1e-7 * math.sin(2 * math.pi * 4000 * k * 5e-6)
+        z = plant.output_row()
+        obs.step(ux, 0.0, float(z[0]), float(z[2]), 5e-6)
+        plant.step(ux, 0.0, 1.0, 5e-6)
+    return obs
+
+
 def test_a_restored_covariance_not_symmetric_to_the_bit_is_refused_by_the_core():
     """Every step keeps each rate model's P symmetric to the bit, and the mixing and the
     combined P rely on it (each entry's expression is the same in (a, b) and (b, a), so no
     triangle is mirrored): a restored P whose two halves differ in one entry, by one ulp,
     is refused by name; the same P made symmetric goes on."""
     from gyro_fmu.estimation.observer import Params, c_tuning
-    from gyro_fmu.model.plant import GyroPlantModel, MeasurementNoise
 
     p = scenario("default").params
     tun = ObserverTuning(rate_model=0)
-    obs = GyroStateObserver(p, 0.0, 1, tun)
-    plant = GyroPlantModel(p, MeasurementNoise(x=1e-12, y=1e-12), 1)
-    for k in range(50):  # a few steps: off-diagonal covariances that are not zero
-        ux = 1e-7 * math.sin(2 * math.pi * 4000 * k * 5e-6)
-        z = plant.output_row()
-        obs.step(ux, 0.0, float(z[0]), float(z[2]), 5e-6)
-        plant.step(ux, 0.0, 1.0, 5e-6)
+    obs = _stepped_observer(p, tun)
     guess = Params(*(float(getattr(p, n)) for n, _ in Params._fields_))
 
     def problem() -> str:
@@ -361,16 +369,8 @@ def test_the_library_set_state_refuses_what_the_core_refuses(change: str, words:
     """The library's set_state runs the core's checks of a restored state (those an FMU's
     restore runs): a saved state edited out of what any run can hold is refused by name,
     and the observer it was to replace is left as it was."""
-    from gyro_fmu.model.plant import GyroPlantModel, MeasurementNoise
-
     p = scenario("default").params
-    obs = GyroStateObserver(p, 0.0, 1, ObserverTuning(rate_model=4))
-    plant = GyroPlantModel(p, MeasurementNoise(x=1e-12, y=1e-12), 1)
-    for k in range(50):
-        ux = 1e-7 * math.sin(2 * math.pi * 4000 * k * 5e-6)
-        z = plant.output_row()
-        obs.step(ux, 0.0, float(z[0]), float(z[2]), 5e-6)
-        plant.step(ux, 0.0, 1.0, 5e-6)
+    obs = _stepped_observer(p, ObserverTuning(rate_model=4))
     state = obs.get_state()
     GyroStateObserver(p, 0.0, 1, obs.tuning).set_state(state)  # as saved: restored
     rf = state["rate_filters"]

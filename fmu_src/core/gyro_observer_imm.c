@@ -260,9 +260,9 @@ static void predict_about(const GyroObserver *o, const double *xbar, const doubl
         om[a] = a < ro ? acc : 0.0;
     }
     for (int a = 0; a < r; a++) x[IOM + a] = om[a];
-    /* A = F P, the plant's and the rate block's rows. The innermost index runs over a whole
-     * row of NMAX (a fixed length the compiler unrolls and vectorizes); columns past n are
-     * computed and not used. */
+    /* A = F P, the plant's rows (plant_rows_of_FP) and the rate block's, each row's
+     * innermost loop of a fixed length the compiler vectorizes; columns past n are computed
+     * and not used. */
     if (ro == 1) /* a rate model of order 1: A's columns past IOM + 1 are not read */
         plant_rows_of_FP(P, Phi, S, IOM + 1, A);
     else
