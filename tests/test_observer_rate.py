@@ -364,6 +364,8 @@ def test_a_restored_covariance_not_symmetric_to_the_bit_is_refused_by_the_core()
     ("asymmetric", "a rate model's covariance that is not symmetric"),
     ("rate_scale", "a moving bank's scale outside its range"),
     ("probability", "model probabilities outside [0, 1]"),
+    ("wander", "a constant model's wander test out of its range"),
+    ("wander field", "expected the wander test's fields"),
 ])
 def test_the_library_set_state_refuses_what_the_core_refuses(change: str, words: str):
     """The library's set_state runs the core's checks of a restored state (those an FMU's
@@ -378,6 +380,10 @@ def test_the_library_set_state_refuses_what_the_core_refuses(change: str, words:
         rf["P"][2][5][1] = math.nextafter(rf["P"][2][5][1], math.inf)
     elif change == "rate_scale":
         rf["rate_scale"] = math.log(100.0)
+    elif change == "wander":
+        rf["wander"]["log_q"] = [math.log(1e-12), math.log(10.0)]  # q beyond the rough's
+    elif change == "wander field":
+        rf["wander"]["q"] = [0.0, 0.0]
     else:
         rf["mu"][1] = 1.5
     before = obs.get_state()

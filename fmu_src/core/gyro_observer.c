@@ -196,6 +196,8 @@ int gyro_observer_init(GyroObserver *o, const GyroParams *guess, double Omega_z_
     o->nu2[0] = o->nu2[1] = -1.0;
     o->nu2_zero[0] = o->nu2_zero[1] = o->nu2_mass = 0.0;
     o->refit.last_T = -1.0;
+    for (int k = 0; k < 2; k++)
+        o->wander.log_q[k] = log(WANDER_MIN), o->wander.r[k] = o->wander.mu_min[k] = 1.0;
     return 0;
 }
 
@@ -418,6 +420,14 @@ static const char *restored_state_problem(const GyroObserver *o) {
     if (o->auto_prior < 0 || o->auto_prior > 2) return "an auto prior state not 0, 1 or 2";
     if (!(o->rate_scale >= log(BANK_MIN) && o->rate_scale <= log(BANK_MAX)))
         return "a moving bank's scale outside its range";
+    const GyroWander *w = &o->wander;
+    if (!all_finite(w->log_q, sizeof *w / sizeof(double)))
+        return "a constant model's wander test not finite";
+    for (int k = 0; k < 2; k++)
+        if (!(w->log_q[k] >= log(WANDER_MIN) && w->log_q[k] <= log(WANDER_MAX) &&
+              w->time[k] >= 0.0 && w->r[k] > 0.0 && w->mu_min[k] >= 0.0 &&
+              w->mu_min[k] <= 1.0))
+            return "a constant model's wander test out of its range";
     if (!memchr(o->lost_message, '\0', sizeof o->lost_message)) return "an unterminated message";
     return NULL;
 }

@@ -177,6 +177,7 @@ void obs_imm_update(GyroObserver *o, double z1, double z2, double h, int with_P)
     obs_monitor_innovations(o, nu, R);
     obs_refit_correct(o, nu, R, h);
     const int M = o->n_models;
+    const double wander_x0 = o->xs[0][IOM], wander_p0 = o->Ps[0][IOM][IOM];
     for (int j = 0; j < M; j++) {
         double logdet;
         const double nis = obs_correct_with(o, o->xs[j], o->Ps[j], model_rows(o, j), z1, z2, R,
@@ -192,6 +193,7 @@ void obs_imm_update(GyroObserver *o, double z1, double z2, double h, int with_P)
         }
         for (int j = 0; j < M; j++) o->mu[j] /= total;
         if (o->tuning.rate_model == 4) obs_bank_move(o);
+        if (o->tuning.rate_model == 0) obs_wander_step(o, wander_x0, wander_p0, h);
     } else {
         o->mu[0] = 1.0;
     }

@@ -48,6 +48,37 @@ static const double ROUGH_GRADES[GYRO_OBS_MMAX - 4] = {3.0, 10.0, 100.0};
  * 0.05 rad/s at 2 Hz, far below the fixed grades, had error/sigma 3.9 with rate_model 0
  * and 0.97 with the bank; the slow model's probability in the denominator stops c from
  * running down while the slow model holds (docs/observer-rate-model.md). */
+/* rate_model 0's constant model is tested along Omega_z at two time scales (GyroWander,
+ * gyro_observer_rates.c): over blocks of WANDER_BLOCK[k], r = C^2 / V (1 on average while
+ * the model is consistent); each block moves log q_k by WANDER_GAIN[k] (min(r,
+ * WANDER_RMAX) - 1 - WANDER_BIAS[k]) within [log WANDER_MIN, log WANDER_MAX] of the rough
+ * model's intensity; q_k is 0 at the floor, and the model's intensity is q_0 + q_1 (at
+ * rest: 0, the constant model as before). Measured in process on GyroSensor's chain
+ * (docs/observer-rate-model.md, "The constant model's wander test"):
+ * - the 20 ms scale finds a 2 Hz sway within a few blocks; the 200 ms scale finds the
+ *   slow ones (0.05 rad/s at 0.5 Hz moves too little in 20 ms: error/sigma 4.4 with that
+ *   scale alone, 1.45 with both). At 100 ms with gain 1 and bias 0.25 the slow sways read
+ *   1.4 but the noise at rest of a high-q seed rose 2x (a slowly converging estimate looks
+ *   like a wandering rate there); at 200 ms with gain 0.5, 4.5;
+ * - the bias pulls q to 0 unless the data ask for more. Without it, at rest q wandered up
+ *   to 1e-3 on some seeds (a 20 ms block cannot tell an over-cautious q below that) and
+ *   the noise over 10 s at rest rose 1.3-2.3x; with 0.5 at 20 ms, one high-q seed in 8
+ *   still rose 1.4x (datasheet's arw). With these, the noise at rest is within 2 % of the
+ *   constant model's on 20 preset seeds: the floor's depth keeps the excursions below 1e-7;
+ * - the cap on r bounds one block's move (a chi-square outlier at rest);
+ * - q does not rise in a block where the constant model's probability fell below
+ *   WANDER_MU: a jump, the rough models' to follow. Without it, after a 10 rad/s jump q
+ *   reached the rough intensity and took 0.6 s to come down, and the high-q datasheet's
+ *   scale-factor error rose from 1 +- 17 to 44 +- 76 ppm. At 0.1 the sways in which the
+ *   rough models share the probability were gated too (0.5 rad/s at 2 Hz: 1.0 -> 2.0). */
+static const double WANDER_BLOCK[2] = {0.02, 0.2};
+static const double WANDER_GAIN[2] = {0.5, 0.75};
+static const double WANDER_BIAS[2] = {0.75, 0.5};
+static const double WANDER_RMAX = 20.0;
+static const double WANDER_MIN = 1e-12;
+static const double WANDER_MAX = 1.0;
+static const double WANDER_MU = 1e-6;
+static const double WANDER_AVG = 0.2; /* r's average over blocks (a diagnostic) */
 #define BANK_MODELS 6
 static const double BANK_RATIO = 10.0;
 static const double BANK_TAU = 0.03;
@@ -161,6 +192,7 @@ double obs_refit_judge(GyroObserver *o, double h);
 void obs_imm_update(GyroObserver *o, double z1, double z2, double h, int with_P);
 /* gyro_observer_rates.c: rate_model 4's bank moved after a correction's probabilities. */
 void obs_bank_move(GyroObserver *o);
+void obs_wander_step(GyroObserver *o, double x0, double p0, double h);
 void obs_imm_predict(GyroObserver *o, double ux, double uy, double h);
 
 /* gyro_observer_monitor.c */

@@ -61,6 +61,45 @@ void obs_bank_move(GyroObserver *o) {
     }
 }
 
+/* rate_model 0's constant model: the intensity of its random walk, the sum of the two
+ * scales' (each 0 at its floor). */
+static double wander_q(const GyroObserver *o) {
+    double c = 0.0;
+    for (int k = 0; k < 2; k++)
+        if (o->wander.log_q[k] > log(WANDER_MIN)) c += exp(o->wander.log_q[k]);
+    return c * intensity(1, o->tuning.rate_span, o->tuning.rate_bandwidth / SLOW_FRACTION);
+}
+
+/* After a correction (x0, p0: the constant model's Omega_z and its variance before it):
+ * each scale's block sums take it; a full block moves its log q (GyroWander), and the
+ * model's process noise over the step follows. */
+void obs_wander_step(GyroObserver *o, double x0, double p0, double h) {
+    GyroWander *w = &o->wander;
+    const double c = o->xs[0][IOM] - x0, v = p0 - o->Ps[0][IOM][IOM];
+    const double lo = log(WANDER_MIN), hi = log(WANDER_MAX);
+    int moved = 0;
+    for (int k = 0; k < 2; k++) {
+        w->C[k] += c;
+        w->V[k] += v;
+        w->time[k] += h;
+        if (o->mu[0] < w->mu_min[k]) w->mu_min[k] = o->mu[0];
+        if (w->time[k] < WANDER_BLOCK[k] * (1.0 - 1e-9)) continue;
+        if (w->V[k] > 0.0 && isfinite(w->C[k])) {
+            const double r = w->C[k] * w->C[k] / w->V[k];
+            w->r[k] += WANDER_AVG * (r - w->r[k]);
+            double d = WANDER_GAIN[k] *
+                       ((r < WANDER_RMAX ? r : WANDER_RMAX) - 1.0 - WANDER_BIAS[k]);
+            if (w->mu_min[k] < WANDER_MU && d > 0.0) d = 0.0; /* a jump: the rough models' */
+            const double s = w->log_q[k] + d;
+            w->log_q[k] = s < lo ? lo : s > hi ? hi : s;
+            moved = 1;
+        }
+        w->C[k] = w->V[k] = w->time[k] = 0.0;
+        w->mu_min[k] = 1.0;
+    }
+    if (moved) rate_process(1, wander_q(o), h, o->Fr[0], o->Qr[0]);
+}
+
 void gyro_observer_set_step(GyroObserver *o, double h) {
     const GyroObserverTuning *tun = &o->tuning;
     const double span = tun->rate_span, f = tun->rate_bandwidth;
@@ -70,7 +109,7 @@ void gyro_observer_set_step(GyroObserver *o, double h) {
     switch (tun->rate_model) {
     case 0: { /* adaptive: constant, rough, slow, agile */
         const double slow = f / SLOW_FRACTION;
-        orders[0] = 1, qs[0] = 0.0;
+        orders[0] = 1, qs[0] = wander_q(o);
         orders[1] = 1, qs[1] = intensity(1, span, slow);
         orders[2] = 2, qs[2] = intensity(2, span, slow);
         orders[3] = 3, qs[3] = intensity(3, span, f);

@@ -25,9 +25,9 @@ _D = c_double
 
 
 #: The structs, as ctypes mirrors of their one declaration (gyro_fmu.core.structs).
-Tuning, MonitorLimits, Monitor, Refit, HeldMaps, Observer = (
+Tuning, MonitorLimits, Monitor, Refit, HeldMaps, Wander, Observer = (
     s.ctypes() for s in (structs.TUNING, structs.MONITOR_LIMITS, structs.MONITOR,
-                         structs.REFIT, structs.HELD, structs.OBSERVER))
+                         structs.REFIT, structs.HELD, structs.WANDER, structs.OBSERVER))
 
 
 _O = POINTER(Observer)

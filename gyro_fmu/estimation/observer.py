@@ -28,15 +28,13 @@ from ..model.measurement import UNKNOWNS, MeasuredPair
 from ..model.parameters import GyroParameters
 from . import observer_rate as rate
 from .observer_monitor import CoarseStepWarning, ObserverDivergedError, ObserverStepError
+from .observer_state import HELD_FIELDS, STATE_VERSION, fields, restore
 from .observer_tuning import ObserverTuning
 
 __all__ = ["CoarseStepWarning", "GyroStateObserver", "ObserverDivergedError",
            "ObserverStepError", "ObserverTuning"]
 
-_STATE_VERSION = 5  # 5: nu2 holds the covariance's noise EWMA too (0.4.0)
-#: The held-step cache's watch fields a state keeps (its maps are rebuilt from them).
-_HELD_FIELDS = ("valid", "h", "xc", "steady", "tol")
-_REFIT_ARRAYS = ("W", "g", "F", "shift", "move")  #: the re-fit test's array fields
+_WANDER = cobs.Wander._fields_  #: the constant model's wander test (rate_model 0)
 N_PAR = cobs.NPAR  #: kxx, kyy, kxy, dxx, dyy, dxy, b = 1/m
 I_PAR = cobs.IPAR  #: filter-state row of the first parameter
 I_OM = cobs.IOM  #: filter-state row of Omega_z
@@ -311,7 +309,7 @@ class GyroStateObserver:
                                                "value", "block", "last_nis", "last_rel")]
         numbers += [*mon.prev, *mon.ac, *mon.sq, mon.last_corr]
         return {
-            "version": _STATE_VERSION,
+            "version": STATE_VERSION,
             "measured_pair": int(self.measured_pair),
             "tuning": asdict(self.tuning),
             "wx": self.wx,
@@ -322,25 +320,23 @@ class GyroStateObserver:
             "P": self.P.tolist(),
             "rate_filters": {"x": self.xs.tolist(), "P": self.Ps.tolist(),
                              "mu": self.mu.tolist(), "c": self.c.tolist(),
-                             "rate_scale": float(self._c.rate_scale)},
+                             "rate_scale": float(self._c.rate_scale),
+                             "wander": fields(self._c.wander)},
             "peak": self.peak.tolist(),
             "nu2": [*self._view("nu2").tolist(), *self._view("nu2_zero").tolist(),  # gain's, P's
                     float(self._c.nu2_mass)],
             "monitor": [*numbers, self.status, self.lost, int(self._c.auto_prior)],
-            "refit": {name: np.ctypeslib.as_array(getattr(self._c.refit, name)).tolist()
-                      if name in _REFIT_ARRAYS else getattr(self._c.refit, name)
-                      for name, _ in type(self._c.refit)._fields_},
+            "refit": fields(self._c.refit),
             "t": self.t,
-            "held": {name: np.ctypeslib.as_array(getattr(self._c.held, name)).tolist()
-                     if name == "xc" else getattr(self._c.held, name) for name in _HELD_FIELDS},
+            "held": fields(self._c.held, HELD_FIELDS),
         }
 
     def set_state(self, state: dict) -> None:
         """Restore a get_state() snapshot (also into an observer built differently)."""
-        if not isinstance(state, dict) or state.get("version") != _STATE_VERSION:
+        if not isinstance(state, dict) or state.get("version") != STATE_VERSION:
             raise ValueError(
                 f"observer state must be a dict from get_state() with version "
-                f"{_STATE_VERSION}; got {type(state).__name__} "
+                f"{STATE_VERSION}; got {type(state).__name__} "
                 f"version {state.get('version') if isinstance(state, dict) else None!r}"
             )
         tuning = ObserverTuning(**state["tuning"])
@@ -403,24 +399,20 @@ class GyroStateObserver:
         if not isinstance(refit, dict) or set(refit) != {f for f, _ in type(c.refit)._fields_}:
             raise ValueError(f"observer state refit {refit!r}: expected the re-fit test's "
                              "fields W, g, F, weight, last_T, shift, move, restarts, pending")
-        for name, value in refit.items():
-            if name in _REFIT_ARRAYS:
-                view = np.ctypeslib.as_array(getattr(c.refit, name))
-                view[...] = np.array(value, dtype=float).reshape(view.shape)
-            else:
-                setattr(c.refit, name, float(value))
+        restore(c.refit, refit)
         c.t = float(state["t"])
         c.rate_scale = float(rf.get("rate_scale", 0.0))  # rate_model 4's bank (absent: c 1)
+        wander = rf.get("wander", {})  # the constant model's wander test (absent: fresh)
+        if not set(wander) <= {f for f, _ in _WANDER}:
+            raise ValueError(f"observer state wander {sorted(wander)}: expected the wander "
+                             f"test's fields {', '.join(f for f, _ in _WANDER)}")
+        restore(c.wander, wander)
         held = state.get("held")  # absent in states saved before the cache: it starts empty
         if held is not None:
-            if not isinstance(held, dict) or set(held) != set(_HELD_FIELDS):
+            if not isinstance(held, dict) or set(held) != set(HELD_FIELDS):
                 raise ValueError(f"observer state held {held!r}: expected the held-step "
-                                 f"cache's fields {', '.join(_HELD_FIELDS)}")
-            for name in _HELD_FIELDS:
-                if name == "xc":
-                    c.held.xc[:] = [float(v) for v in held[name]]
-                else:
-                    setattr(c.held, name, float(held[name]))
+                                 f"cache's fields {', '.join(HELD_FIELDS)}")
+            restore(c.held, held)
         if other._lib.gyro_observer_state_restored(ctypes.byref(c), other._msg,
                                                    len(other._msg)):  # the core's checks
             raise ValueError(other._msg.value.decode())

@@ -149,6 +149,22 @@ HELD = Struct(
         Field("Phi", shape=(4, 4)), Field("psi", shape=(2, 4), doc="s1 per unit ux, uy"),
         Field("Sk", shape=(6, 4, 8), doc="S per unit s_0..s_3, ux, uy")))
 
+WANDER = Struct(
+    "GyroWander", "rate_model 0's constant model, tested for consistency along Omega_z at "
+    "two time scales (WANDER_BLOCK): over each block its own corrections of Omega_z sum to "
+    "C, its variance drops sum to V; a consistent filter has E[C^2] = V (its corrections "
+    "are a martingale's increments). r = C^2 / V moves log q of that scale (not up in a "
+    "block where the model lost the probability: a jump); the model is a random walk of "
+    "the sum of the two q (each 0 at its floor): a rate that wanders more slowly than the "
+    "rough models is covered (docs/observer-rate-model.md).", (
+        Field("log_q", shape=(2,), doc="log of each scale's intensity over the rough model's"),
+        Field("C", shape=(2,), unit="rad/s", doc="this block's sum of the model's Omega_z "
+              "corrections"),
+        Field("V", shape=(2,), unit="rad^2/s^2", doc="... of its Omega_z variance drops"),
+        Field("time", shape=(2,), unit="s", doc="this block's length so far"),
+        Field("mu_min", shape=(2,), doc="the constant model's least probability in the block"),
+        Field("r", shape=(2,), doc="EWMA of C^2 / V over blocks (a diagnostic)")))
+
 _I = "int32_t"
 OBSERVER = Struct(
     "GyroObserver", "What one observer is: constants of its scaling, the rate models of the "
@@ -174,6 +190,7 @@ OBSERVER = Struct(
         Field("qpar"),
         Field("rate_scale", doc="rate_model 4: log of the moving bank's scale c (its rough "
               "models at c x {1/10, 1, 10} of the rough intensity, the slow one at min(c, 1))"),
+        Field("wander", WANDER),
         Field("Fr", shape=(MMAX, RMAX, RMAX)), Field("Qr", shape=(MMAX, RMAX, RMAX)),
         Field("Pi", shape=(MMAX, MMAX), doc="rate models' transition probabilities"),
         Field("x", shape=(NMAX,), doc="the combined estimate"),
@@ -193,4 +210,4 @@ OBSERVER = Struct(
         Field("lost_message", "char", shape=(MESSAGE,))))
 
 CONSTANTS = (NPAR, NMAX, MMAX, RMAX, MESSAGE)
-STRUCTS = (TUNING, MONITOR_LIMITS, MONITOR, REFIT, HELD, OBSERVER)
+STRUCTS = (TUNING, MONITOR_LIMITS, MONITOR, REFIT, HELD, WANDER, OBSERVER)
