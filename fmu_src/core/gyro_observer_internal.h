@@ -48,6 +48,11 @@ static const double ROUGH_GRADES[GYRO_OBS_MMAX - 4] = {3.0, 10.0, 100.0};
  * 0.05 rad/s at 2 Hz, far below the fixed grades, had error/sigma 3.9 with rate_model 0
  * and 0.97 with the bank; the slow model's probability in the denominator stops c from
  * running down while the slow model holds (docs/observer-rate-model.md). */
+#define BANK_MODELS 6
+static const double BANK_RATIO = 10.0;
+static const double BANK_TAU = 0.03;
+static const double BANK_MIN = 1e-3;
+static const double BANK_MAX = 10.0;
 /* rate_model 0's constant model is tested along Omega_z at two time scales (GyroWander,
  * gyro_observer_rates.c): over blocks of WANDER_BLOCK[k], r = C^2 / V (1 on average while
  * the model is consistent); each block moves log q_k by WANDER_GAIN[k] (min(r,
@@ -79,11 +84,6 @@ static const double WANDER_MIN = 1e-12;
 static const double WANDER_MAX = 1.0;
 static const double WANDER_MU = 1e-6;
 static const double WANDER_AVG = 0.2; /* r's average over blocks (a diagnostic) */
-#define BANK_MODELS 6
-static const double BANK_RATIO = 10.0;
-static const double BANK_TAU = 0.03;
-static const double BANK_MIN = 1e-3;
-static const double BANK_MAX = 10.0;
 /* Auto prior of [x, vx, y, vy] started by the drive (plant at rest): this fraction of the
  * static deflection; 10 % or more let the velocity-pair filter converge to Omega -5.
  * Started by a measurement above its noise (a plant not known at rest): its size; 1 %
