@@ -34,7 +34,6 @@ from .observer_tuning import ObserverTuning
 __all__ = ["CoarseStepWarning", "GyroStateObserver", "ObserverDivergedError",
            "ObserverStepError", "ObserverTuning"]
 
-_WANDER = cobs.Wander._fields_  #: the constant model's wander test (rate_model 0)
 N_PAR = cobs.NPAR  #: kxx, kyy, kxy, dxx, dyy, dxy, b = 1/m
 I_PAR = cobs.IPAR  #: filter-state row of the first parameter
 I_OM = cobs.IOM  #: filter-state row of Omega_z
@@ -403,9 +402,9 @@ class GyroStateObserver:
         c.t = float(state["t"])
         c.rate_scale = float(rf.get("rate_scale", 0.0))  # rate_model 4's bank (absent: c 1)
         wander = rf.get("wander", {})  # the constant model's wander test (absent: fresh)
-        if not set(wander) <= {f for f, _ in _WANDER}:
+        if not set(wander) <= set(names := [f for f, _ in type(c.wander)._fields_]):
             raise ValueError(f"observer state wander {sorted(wander)}: expected the wander "
-                             f"test's fields {', '.join(f for f, _ in _WANDER)}")
+                             f"test's fields {', '.join(names)}")
         restore(c.wander, wander)
         held = state.get("held")  # absent in states saved before the cache: it starts empty
         if held is not None:
