@@ -3,7 +3,7 @@ user meets: is the reported sigma honest, and does status say when the answer is
 
     python benchmarks/observer_families.py [--gyros 8] [--seeds 4] [--noise 1e-5 1e-4]
                                            [--families constant step gm10 ...] [--bound]
-                                           [--ideal]
+                                           [--ideal] [--set wide] [--jobs 2]
 
 Gyros (seeded draws, none a preset): x mode 2-20 kHz (log-uniform), y mode 1-15 % above
 or below it, Q 1e2-1e5 per axis (log-uniform), cross damping up to 10 % of
@@ -70,7 +70,9 @@ import argparse  # noqa: E402
 import math  # noqa: E402
 import shutil  # noqa: E402
 import time  # noqa: E402
+from concurrent.futures import ProcessPoolExecutor  # noqa: E402
 from dataclasses import dataclass  # noqa: E402
+from multiprocessing.util import Finalize  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -428,6 +430,24 @@ def summarize(runs: list[Run]) -> dict:
     return out
 
 
+_OBSERVER: ObserverFMU | None = None  # a worker's own FMU instance (--jobs)
+
+
+def _worker_start(tuning: dict[str, float], told_noise: bool, guess_per_run: bool) -> None:
+    """A worker process: the command line's settings and one GyroObserver.fmu instance,
+    freed when the worker exits."""
+    global TOLD_NOISE, GUESS_PER_RUN, _OBSERVER
+    TUNING.update(tuning)
+    TOLD_NOISE, GUESS_PER_RUN = told_noise, guess_per_run
+    _OBSERVER = ObserverFMU(prebuilt_fmu("GyroObserver"))
+    Finalize(None, _OBSERVER.close, exitpriority=10)  # run as the worker exits (a forked
+    # worker does not run atexit)
+
+
+def _gyro_job(job: tuple) -> list[Run]:
+    return one_gyro(_OBSERVER, *job)
+
+
 def share_ratio(runs: list[Run], draws: int = 4000) -> tuple[float, float, float]:
     """The status-0 share beyond 3 sigma over the ideal filter's (its own status 0 too),
     and the 5 and 95 % points of that ratio over runs drawn with replacement: a run's
@@ -467,6 +487,9 @@ def main() -> int:
                     help="each gyro and seed its own guess signs (the same in every family "
                          "and noise), not one guess per gyro: the spread of the start counts "
                          "in the table as the seeds' noise does")
+    ap.add_argument("--jobs", type=int, default=1,
+                    help="worker processes, each with its own FMU instance (gyros are "
+                         "shared out; the figures do not depend on it)")
     ap.add_argument("--gyro-seed", type=int, default=2026)
     ap.add_argument("--set", choices=("families", "wide"), default="families",
                     help="families: random gyros 2-20 kHz, the default drive; wide: modes "
@@ -495,15 +518,13 @@ def main() -> int:
               f"{math.sqrt(p.kyy) / p.dyy:8.3g}, kxy/sqrt(kxx kyy) "
               f"{p.kxy / math.sqrt(p.kxx * p.kyy):+.3f}, m {p.m:.2g} kg, drive "
               f"{drives[g].f1:.0f} + {drives[g].f2:.0f} Hz")
-    obs = ObserverFMU(prebuilt_fmu("GyroObserver"))
     start = time.perf_counter()
-    runs: list[Run] = []
-    try:
-        for g, p in enumerate(gyros):
-            runs += one_gyro(obs, g, p, args.families, args.noise, args.seeds, n, args.bound,
-                             args.ideal, args.crb, drives[g], labels[g])
-    finally:
-        obs.close()
+    jobs = [(g, p, args.families, args.noise, args.seeds, n, args.bound, args.ideal, args.crb,
+             drives[g], labels[g]) for g, p in enumerate(gyros)]
+    settings = (TUNING, TOLD_NOISE, GUESS_PER_RUN)
+    with ProcessPoolExecutor(args.jobs, initializer=_worker_start,
+                             initargs=settings) as pool:
+        runs = [r for per_gyro in pool.map(_gyro_job, jobs) for r in per_gyro]
     wall = time.perf_counter() - start
     print(f"\n{len(runs)} runs of {args.stop_time * 1e3:g} ms in {wall:.0f} s; window "
           f"{WINDOW_START * 1e3:g} ms to the end")
@@ -556,10 +577,28 @@ def main() -> int:
     return 0
 
 
+def es_interval(runs: list[Run], ideal: bool = False,
+                draws: int = 4000) -> tuple[float, float, float]:
+    """RMS error/sigma over the window, and its 5 and 95 % points over runs drawn with
+    replacement (a run's errors are slow: the run is the unit of chance). ideal: the
+    ideal filter's."""
+    def sums(r: Run) -> tuple[float, int]:
+        m = r.t >= WINDOW_START
+        z = (r.ideal_err / r.ideal_sigma if ideal else r.err / r.sigma)[m]
+        return float(np.sum(z**2)), int(m.sum())
+
+    sq, cnt = np.array([sums(r) for r in runs]).T
+    pick = np.random.default_rng(0).integers(0, len(runs), (draws, len(runs)))
+    drawn = np.sqrt(sq[pick].sum(axis=1) / cnt[pick].sum(axis=1))
+    lo, hi = np.percentile(drawn, [5, 95])
+    return float(np.sqrt(sq.sum() / cnt.sum())), float(lo), float(hi)
+
+
 def by_class(runs: list[Run], families) -> None:
-    """The wide set per class of gyro and family, noises pooled; the worst gyro's e/s."""
-    print(f"\n{'class':<30} {'family':<9} {'runs':>4} {'e/s':>6} {'>3s':>7} {'end>4s':>6} "
-          f"{'worst':>7} {'flag':>4} {'worst gyro e/s':>15}")
+    """The wide set per class of gyro and family, noises pooled: e/s with its 90 %
+    interval over runs (and the ideal filter's with --ideal), the worst gyro's e/s."""
+    print(f"\n{'class':<30} {'family':<9} {'runs':>4} {'e/s':>6} {'90 % over runs':>14} "
+          f"{'>3s':>7} {'end>4s':>6} {'worst':>7} {'flag':>4} {'worst gyro e/s':>15}  ideal e/s")
     for label in sorted({r.label for r in runs}):
         for family in families:
             mine = [r for r in runs if r.label == label and r.family == family]
@@ -569,9 +608,15 @@ def by_class(runs: list[Run], families) -> None:
             per = {g: summarize([r for r in mine if r.gyro == g])["e/s"]
                    for g in sorted({r.gyro for r in mine})}
             g_worst = max(per, key=per.get)
-            print(f"{label:<30} {family:<9} {s['runs']:>4} {s['e/s']:>6.2f} {s['>3s']:>7.2%} "
+            _, lo, hi = es_interval(mine)
+            ideal = ""
+            if mine[0].ideal_err is not None:
+                e, ilo, ihi = es_interval(mine, ideal=True)
+                ideal = f"  {e:.2f} ({ilo:.2f}-{ihi:.2f})"
+            print(f"{label:<30} {family:<9} {s['runs']:>4} {s['e/s']:>6.2f} "
+                  f"{f'{lo:.2f}-{hi:.2f}':>14} {s['>3s']:>7.2%} "
                   f"{s['end>4s']:>6} {s['worst_end']:>7.1f} {s['flag']:>4} "
-                  f"{per[g_worst]:>9.2f} (g{g_worst})")
+                  f"{per[g_worst]:>9.2f} (g{g_worst}){ideal}")
 
 
 if __name__ == "__main__":

@@ -35,3 +35,26 @@ def test_rate_profiles(models_dir, params, formula):
     r = run_cosimulation([Component("rate", models_dir / "RateProfile.fmu", params)], [],
                          0.002, 5e-6)
     assert np.max(np.abs(r["rate.Omega_z"] - formula(r["time"]))) < 1e-12
+
+
+def _ux_and_Omega(drive, rate) -> tuple[float, float]:
+    return drive.ux(3.1e-4), rate.Omega_z(3.1e-4)
+
+
+def test_the_library_drive_and_rate_profile_cross_a_process_pool():
+    """They hold the core's struct (ctypes, not picklable): pickled as their fields, a
+    worker process gets the same inputs (benchmarks/observer_families.py --jobs)."""
+    import pickle
+    from concurrent.futures import ProcessPoolExecutor
+
+    from gyro_fmu.model.drive import TwoToneDrive
+    from gyro_fmu.model.rate import RateKind, RateProfile
+
+    drive = TwoToneDrive(A1=0.5, f1=2500.0, A2=2.0, f2=1200.0)
+    rate = RateProfile(kind=RateKind.sine, offset=0.1, amplitude=2.0, frequency=100.0)
+    assert pickle.loads(pickle.dumps(drive)) == drive
+    assert pickle.loads(pickle.dumps(rate)) == rate
+    with ProcessPoolExecutor(1) as pool:
+        there = pool.submit(_ux_and_Omega, drive, rate).result()
+    assert there == _ux_and_Omega(drive, rate)
+    assert there[0] != 0.0 and there[1] != 0.1

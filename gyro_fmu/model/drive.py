@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import ctypes
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -40,6 +40,11 @@ class TwoToneDrive:
         # the core's GyroTwoToneDrive of these values (not a field: eq, repr, replace skip it)
         object.__setattr__(self, "_c", CDrive(float(self.A1), float(self.f1),
                                               float(self.A2), float(self.f2)))
+
+    def __reduce__(self):
+        """Pickled as its fields (the core's struct is made again): a process pool can
+        take it."""
+        return (type(self), tuple(getattr(self, f.name) for f in fields(self)))
 
     @property
     def c_struct(self):

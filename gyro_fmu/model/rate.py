@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from enum import IntEnum
 
 import numpy as np
@@ -45,6 +45,11 @@ class RateProfile:
         object.__setattr__(self, "_c", CRate(int(self.kind), 0, float(self.offset),
                                              float(self.amplitude), float(self.frequency),
                                              float(self.slope), float(self.t_start)))
+
+    def __reduce__(self):
+        """Pickled as its fields (the core's struct is made again): a process pool can
+        take it."""
+        return (type(self), tuple(getattr(self, f.name) for f in fields(self)))
 
     @property
     def c_struct(self):
