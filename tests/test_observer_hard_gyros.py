@@ -130,3 +130,45 @@ def test_the_first_samples_noise_does_not_make_the_state_prior() -> None:
                 obs.step(float(u[k]), 0.0, float(z[k, 0]), float(z[k, 1]), H)
         row = obs.output_row()
         assert abs(row[4] - 1.0) <= 3.0 * row[12], (seed, (row[4] - 1.0) / row[12], obs.status)
+
+
+#: Issue 44's table on three gyros of its kind (benchmarks/observer_families.py --set issue,
+#: docs/observer-rate-model.md): the runs that carried its share beyond 3 sigma before
+#: (b508c7f^'s core, the same recipe in process): (gyro, its index there, seed, noise,
+#: share of the window beyond 3 sigma with status 0 then)
+ISSUE_RUNS = [
+    (gyro(7100, 7460, 2e4, 2e4, 0.01, 0.1, 1e-8), 0, 7, 1e-5, 0.936),
+    (HARD["3 kHz, Q 5e3, 2500 + 1200 Hz"][0], 1, 0, 1e-5, 0.328),
+    (HARD["3 kHz, Q 5e3, 2500 + 1200 Hz"][0], 1, 2, 1e-4, 0.797),
+]
+
+
+@pytest.mark.parametrize(("p", "index", "seed", "noise", "before"), ISSUE_RUNS)
+def test_the_issues_over_confident_runs_are_honest(p: GyroParameters, index: int, seed: int,
+                                                   noise: float, before: float) -> None:
+    """A constant 1 rad/s under the issue's 2500 + 1200 Hz from guesses 5 % off, noise
+    estimated (the default): before, 33-94 % of the window from 20 ms lay beyond 3 sigma
+    with status 0 on these runs (the issue's 2.26 % pooled came from such runs); measured
+    now 0.0 % each, ending 0.1, 1.0 and 1.2 sigma off."""
+    drive = TwoToneDrive(f1=2500.0, f2=1200.0)
+    unit = drive.ux_many(np.arange(N) * H)
+    u = unit * 1e-8 / np.abs(measurements(p, unit)[:, 0]).max()
+    clean = measurements(p, u)
+    signs = np.random.default_rng((index, seed, 11)).choice([-1, 1], size=len(PARAMETER_NAMES))
+    guess = GyroParameters(**{k: getattr(p, k) * (1 + 0.05 * s)
+                              for k, s in zip(PARAMETER_NAMES, signs, strict=True)})
+    z = clean + np.random.default_rng((index, seed, int(noise * 1e9))).standard_normal(
+        clean.shape) * noise * np.abs(clean).max(axis=0)
+    obs = GyroStateObserver(guess, 0.0, 1, ObserverTuning())
+    beyond, judged = 0, 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for k in range(N):
+            obs.step(float(u[k]), 0.0, float(z[k, 0]), float(z[k, 1]), H)
+            if (k + 1) * H >= 0.02:
+                row = obs.output_row()
+                judged += 1
+                beyond += obs.status == 0 and abs(row[4] - 1.0) > 3 * row[12]
+    row = obs.output_row()
+    assert beyond / judged < 0.05 < before, (beyond / judged, before)
+    assert abs(row[4] - 1.0) < 2.5 * row[12], ((row[4] - 1.0) / row[12], obs.status)
