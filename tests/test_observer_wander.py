@@ -106,3 +106,66 @@ def test_the_wander_test_travels_with_the_state():
     assert np.array_equal(np.array(rows[0]), np.array(rows[1]))
     assert obs.get_state()["rate_filters"]["wander"] == twin.get_state()["rate_filters"][
         "wander"]
+
+
+#: The law's constants, as gyro_observer_internal.h states them (WANDER_*): the replay below
+#: is an independent reading of obs_wander_step, so a change there must be made here too.
+BLOCK, GAIN, BIAS = (0.02, 0.2), (0.5, 0.75), (0.75, 0.5)
+R_MAX, Q_MIN, Q_MAX, MU_JUMP = 20.0, 1e-12, 1.0, 1e-6
+
+
+def test_the_law_replayed_from_the_filters_own_corrections():
+    """Step by step, from the constant model's Omega_z and variance before and after each
+    correction and its probability, a Python replay of the law (blocks of 20 and 200 ms;
+    log q += G (min(r, 20) - 1 - b), within [1e-12, 1]; no rise in a block where the
+    probability fell below 1e-6) ends every block on the core's log q to 1e-12. The run
+    (seed 0) sways 0.05 rad/s at 2 Hz from 0.3 s and jumps by 2 rad/s at 1.2 s, so that
+    rises, the floor and the jump's gate all occur; the replay starts from the core's
+    accumulators after 10 steps (the first ones set the state's prior inside the update)."""
+    from gyro_fmu.estimation.observer import I_OM
+
+    plant, obs, drive, h = chain_parts({"seed": 0})
+    sway = _sway(0.05, 2.0)
+
+    def rate(t: float) -> float:
+        return (sway(t) if t >= 0.3 else 0.0) + (2.0 if t >= 1.2 else 0.0)
+
+    w = obs._c.wander
+    mine = None
+    seen = {"rise": 0, "floor": 0, "gate": 0, "blocks": 0}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for k in range(round(1.5 / h)):
+            t = k * h
+            ux = drive.ux(t)
+            z = plant.output_row()
+            if k == 10:
+                mine = {f: [float(v) for v in getattr(w, f)]
+                        for f in ("log_q", "C", "V", "time", "mu_min")}
+            x0, p0, restarts = obs.xs[0, I_OM], obs.Ps[0, I_OM, I_OM], obs.restarts
+            obs.update(z[0], z[2], h)
+            if mine is not None:
+                assert obs.restarts == restarts, "a restart moves P inside the update"
+                c, v = obs.xs[0, I_OM] - x0, p0 - obs.Ps[0, I_OM, I_OM]
+                for s in (0, 1):
+                    mine["C"][s] += c
+                    mine["V"][s] += v
+                    mine["time"][s] += h
+                    mine["mu_min"][s] = min(mine["mu_min"][s], obs.mu[0])
+                    if mine["time"][s] < BLOCK[s] * (1.0 - 1e-9):
+                        continue
+                    r = mine["C"][s] ** 2 / mine["V"][s]
+                    d = GAIN[s] * (min(r, R_MAX) - 1.0 - BIAS[s])
+                    if mine["mu_min"][s] < MU_JUMP and d > 0.0:
+                        d, seen["gate"] = 0.0, seen["gate"] + 1
+                    seen["rise"] += d > 0.0
+                    q = mine["log_q"][s] + d
+                    seen["floor"] += q < math.log(Q_MIN)
+                    mine["log_q"][s] = min(max(q, math.log(Q_MIN)), math.log(Q_MAX))
+                    mine["C"][s] = mine["V"][s] = mine["time"][s] = 0.0
+                    mine["mu_min"][s] = 1.0
+                    seen["blocks"] += 1
+                    assert mine["log_q"][s] == pytest.approx(w.log_q[s], abs=1e-12), (t, s)
+            obs.predict(ux, 0.0, h)
+            plant.step(ux, 0.0, rate(t), h)
+    assert seen["blocks"] == 75 + 7 and min(seen.values()) > 0, seen
