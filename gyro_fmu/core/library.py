@@ -8,6 +8,7 @@ Python. The C structs appear here as ctypes Structures with the same field names
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import functools
 import platform
 import sys
@@ -102,6 +103,15 @@ def core() -> ctypes.CDLL:
         fn = getattr(lib, name)
         fn.restype, fn.argtypes = restype, argtypes
     return lib
+
+
+class PickledAsFields:
+    """A frozen dataclass that keeps the core's struct of its fields (ctypes: not
+    picklable) is pickled as its fields, and the struct is made again: a process pool can
+    take it."""
+
+    def __reduce__(self):
+        return (type(self), tuple(getattr(self, f.name) for f in dataclasses.fields(self)))
 
 
 def core_text(name: str, *args: object) -> str | None:

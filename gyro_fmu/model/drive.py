@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import ctypes
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.library import PickledAsFields, core_text
 from ..core.library import TwoToneDrive as CDrive
 from ..core.library import core as _core
-from ..core.library import core_text
 from .parameters import GyroParameters, ParameterError, _c_params
 
 
@@ -20,7 +20,7 @@ class DriveFarFromModesWarning(UserWarning):
 
 
 @dataclass(frozen=True)
-class TwoToneDrive:
+class TwoToneDrive(PickledAsFields):
     """ux = A1 sin(2 pi f1 t) + A2 sin(2 pi f2 t) (eq. 10); uy = 0.
 
     Two distinct frequencies make W_kd of eq. 7 full rank: with one tone, x and
@@ -40,11 +40,6 @@ class TwoToneDrive:
         # the core's GyroTwoToneDrive of these values (not a field: eq, repr, replace skip it)
         object.__setattr__(self, "_c", CDrive(float(self.A1), float(self.f1),
                                               float(self.A2), float(self.f2)))
-
-    def __reduce__(self):
-        """Pickled as its fields (the core's struct is made again): a process pool can
-        take it."""
-        return (type(self), tuple(getattr(self, f.name) for f in fields(self)))
 
     @property
     def c_struct(self):

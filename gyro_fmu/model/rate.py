@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from enum import IntEnum
 
 import numpy as np
 
+from ..core.library import PickledAsFields, core_text
 from ..core.library import RateProfile as CRate
 from ..core.library import core as _core
-from ..core.library import core_text
 
 
 class RateKind(IntEnum):
@@ -22,7 +22,7 @@ class RateKind(IntEnum):
 
 
 @dataclass(frozen=True)
-class RateProfile:
+class RateProfile(PickledAsFields):
     """Omega_z(t) in rad/s.
 
     - constant: offset
@@ -45,11 +45,6 @@ class RateProfile:
         object.__setattr__(self, "_c", CRate(int(self.kind), 0, float(self.offset),
                                              float(self.amplitude), float(self.frequency),
                                              float(self.slope), float(self.t_start)))
-
-    def __reduce__(self):
-        """Pickled as its fields (the core's struct is made again): a process pool can
-        take it."""
-        return (type(self), tuple(getattr(self, f.name) for f in fields(self)))
 
     @property
     def c_struct(self):
