@@ -97,16 +97,22 @@ TOLD_NOISE = False
 GUESS_PER_RUN = False
 
 
+def gyro_of_modes(fx: float, fy: float, qx: float, qy: float, kxy: float, dxy: float,
+                  m: float) -> GyroParameters:
+    """A gyro of modes fx, fy (Hz) of quality factors qx, qy, cross stiffness kxy and
+    cross damping dxy as shares of sqrt(kxx kyy) and sqrt(dxx dyy), mass m (kg)."""
+    wx, wy = 2 * math.pi * fx, 2 * math.pi * fy
+    dxx, dyy = wx / qx, wy / qy
+    return GyroParameters(kxx=wx**2, kyy=wy**2, kxy=kxy * wx * wy, dxx=dxx, dyy=dyy,
+                          dxy=dxy * math.sqrt(dxx * dyy), m=m)
+
+
 def random_gyro(rng: np.random.Generator) -> GyroParameters:
     fx = math.exp(rng.uniform(math.log(2e3), math.log(2e4)))
     fy = fx * (1 + rng.choice([-1, 1]) * rng.uniform(0.01, 0.15))
-    wx, wy = 2 * math.pi * fx, 2 * math.pi * fy
     qx, qy = (math.exp(rng.uniform(math.log(1e2), math.log(1e5))) for _ in range(2))
-    dxx, dyy = wx / qx, wy / qy
-    return GyroParameters(
-        kxx=wx**2, kyy=wy**2, kxy=rng.uniform(-0.18, 0.18) * wx * wy,
-        dxx=dxx, dyy=dyy, dxy=rng.uniform(-0.1, 0.1) * math.sqrt(dxx * dyy),
-        m=math.exp(rng.uniform(math.log(1e-9), math.log(4e-7))))
+    return gyro_of_modes(fx, fy, qx, qy, rng.uniform(-0.18, 0.18), rng.uniform(-0.1, 0.1),
+                         math.exp(rng.uniform(math.log(1e-9), math.log(4e-7))))
 
 
 def wide_gyro(rng: np.random.Generator) -> GyroParameters:
@@ -118,28 +124,19 @@ def wide_gyro(rng: np.random.Generator) -> GyroParameters:
 
     fx = log_uniform(1e3, 3e4)
     fy = fx * (1 + rng.choice([-1, 1]) * log_uniform(1e-3, 0.2))
-    wx, wy = 2 * math.pi * fx, 2 * math.pi * fy
-    dxx, dyy = wx / log_uniform(1e2, 1e5), wy / log_uniform(1e2, 1e5)
-    return GyroParameters(
-        kxx=wx**2, kyy=wy**2, kxy=rng.uniform(-0.2, 0.2) * wx * wy,
-        dxx=dxx, dyy=dyy, dxy=rng.uniform(-0.2, 0.2) * math.sqrt(dxx * dyy),
-        m=log_uniform(1e-10, 1e-6))
-
-
-def _modes(fx: float, fy: float, q: float, kxy: float, dxy: float, m: float) -> GyroParameters:
-    wx, wy = 2 * math.pi * fx, 2 * math.pi * fy
-    dxx, dyy = wx / q, wy / q
-    return GyroParameters(kxx=wx**2, kyy=wy**2, kxy=kxy * wx * wy, dxx=dxx, dyy=dyy,
-                          dxy=dxy * math.sqrt(dxx * dyy), m=m)
+    return gyro_of_modes(fx, fy, log_uniform(1e2, 1e5), log_uniform(1e2, 1e5),
+                         rng.uniform(-0.2, 0.2), rng.uniform(-0.2, 0.2),
+                         log_uniform(1e-10, 1e-6))
 
 
 #: --set issue: three gyros of the kind issue 44's table was measured on (its gyros' own
 #: parameters are not given), all under its drive of 2500 + 1200 Hz: the worst it names
 #: (Q 2e4, modes near 7 kHz 5 % apart), a 3 kHz one (tests/test_observer_hard_gyros.py)
 #: and a low-Q one (tests/test_excitation_core.py)
-ISSUE_GYROS = {"7.1 / 7.46 kHz, Q 2e4": _modes(7100, 7460, 2e4, 0.01, 0.1, 1e-8),
-               "3.0 / 3.06 kHz, Q 5e3": _modes(3000, 3060, 5e3, 0.05, 0.05, 1e-7),
-               "1.9 / 2.1 kHz, Q 150": _modes(1900, 2100, 150, 0.01, 0.1, 1e-8)}
+ISSUE_GYROS = {
+    "7.1 / 7.46 kHz, Q 2e4": gyro_of_modes(7100, 7460, 2e4, 2e4, 0.01, 0.1, 1e-8),
+    "3.0 / 3.06 kHz, Q 5e3": gyro_of_modes(3000, 3060, 5e3, 5e3, 0.05, 0.05, 1e-7),
+    "1.9 / 2.1 kHz, Q 150": gyro_of_modes(1900, 2100, 150, 150, 0.01, 0.1, 1e-8)}
 ISSUE_DRIVE = (2500.0, 1200.0)
 
 
@@ -526,10 +523,11 @@ def main() -> int:
     n = round(args.stop_time / H)
     rng = np.random.default_rng(args.gyro_seed)
     wide = args.set == "wide"
-    gyros = [(wide_gyro if wide else random_gyro)(rng) for _ in range(args.gyros)]
     if args.set == "issue":
         gyros = list(ISSUE_GYROS.values())
         args.drive = list(ISSUE_DRIVE)
+    else:
+        gyros = [(wide_gyro if wide else random_gyro)(rng) for _ in range(args.gyros)]
     plain = TwoToneDrive(f1=args.drive[0], f2=args.drive[1]) if args.drive else TwoToneDrive()
     drives = [designed_drive(p) if wide and g % 2 == 0 else plain
               for g, p in enumerate(gyros)]
