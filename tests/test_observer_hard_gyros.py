@@ -50,15 +50,24 @@ def measurements(p: GyroParameters, u: np.ndarray) -> np.ndarray:
     return s[:, [0, 2]]
 
 
+def driven(p: GyroParameters, drive: TwoToneDrive) -> tuple[np.ndarray, np.ndarray]:
+    """The drive scaled to a peak displacement of 1e-8 m, and the positions it gives."""
+    unit = drive.ux_many(np.arange(N) * H)
+    u = unit * 1e-8 / np.abs(measurements(p, unit)[:, 0]).max()
+    return u, measurements(p, u)
+
+
+def guessed(p: GyroParameters, signs: np.ndarray) -> GyroParameters:
+    """Each parameter 5 % off, with these signs."""
+    return GyroParameters(**{k: getattr(p, k) * (1 + 0.05 * s)
+                             for k, s in zip(PARAMETER_NAMES, signs, strict=True)})
+
+
 @pytest.mark.parametrize("name", list(HARD))
 def test_no_run_ends_far_off_with_status_ok(name: str) -> None:
     p, drive = HARD[name]
-    unit = drive.ux_many(np.arange(N) * H)
-    u = unit * 1e-8 / np.abs(measurements(p, unit)[:, 0]).max()  # peak displacement 1e-8 m
-    clean = measurements(p, u)
-    signs = np.random.default_rng(7).choice([-1, 1], size=len(PARAMETER_NAMES))
-    guess = GyroParameters(**{k: getattr(p, k) * (1 + 0.05 * s)
-                              for k, s in zip(PARAMETER_NAMES, signs, strict=True)})
+    u, clean = driven(p, drive)
+    guess = guessed(p, np.random.default_rng(7).choice([-1, 1], size=len(PARAMETER_NAMES)))
     for seed in (1, 2):
         z = clean + np.random.default_rng(seed).standard_normal(clean.shape) \
             * 1e-4 * np.abs(clean).max(axis=0)
@@ -83,14 +92,11 @@ def test_the_noise_estimate_does_not_leave_the_covariance_over_confident() -> No
     gain's estimate in the covariance too; beyond 3 sigma 1.07 % and 3.81 %; the worst end
     3.7 and 6.9 sigma."""
     p, drive = HARD["3 kHz, Q 5e3, 2500 + 1200 Hz"]
-    unit = drive.ux_many(np.arange(N) * H)
-    u = unit * 1e-8 / np.abs(measurements(p, unit)[:, 0]).max()
-    clean = measurements(p, u)
+    u, clean = driven(p, drive)
     ratios = []
     for pattern in range(4):
-        signs = np.random.default_rng(100 + pattern).choice([-1, 1], size=len(PARAMETER_NAMES))
-        guess = GyroParameters(**{k: getattr(p, k) * (1 + 0.05 * s)
-                                  for k, s in zip(PARAMETER_NAMES, signs, strict=True)})
+        guess = guessed(p, np.random.default_rng(100 + pattern).choice(
+            [-1, 1], size=len(PARAMETER_NAMES)))
         for seed in range(16):
             z = clean + np.random.default_rng(1000 * pattern + seed).standard_normal(
                 clean.shape) * 1e-4 * np.abs(clean).max(axis=0)
@@ -117,9 +123,7 @@ def test_the_first_samples_noise_does_not_make_the_state_prior() -> None:
     at the first drive (fmu_src/core/gyro_observer.c, start_prior). Measured, seeds 0-7:
     end error/sigma RMS 2.7 -> 0.64, seed 1 +7.45 -> +0.55; the others move by <= 0.03."""
     p = gyro(11978, 11915, 5025, 1777, 0.1097, 0.1834, 3.58e-7)
-    unit = TwoToneDrive().ux_many(np.arange(N) * H)
-    u = unit * 1e-8 / np.abs(measurements(p, unit)[:, 0]).max()
-    clean = measurements(p, u)
+    u, clean = driven(p, TwoToneDrive())
     for seed in range(4):
         z = clean + np.random.default_rng((9, seed, 100000, 0)).standard_normal(
             clean.shape) * 1e-4 * np.abs(clean).max(axis=0)
@@ -150,13 +154,9 @@ def test_the_issues_over_confident_runs_are_honest(p: GyroParameters, index: int
     estimated (the default): before, 33-94 % of the window from 20 ms lay beyond 3 sigma
     with status 0 on these runs (the issue's 2.26 % pooled came from such runs); measured
     now 0.0 % each, ending 0.1, 1.0 and 1.2 sigma off."""
-    drive = TwoToneDrive(f1=2500.0, f2=1200.0)
-    unit = drive.ux_many(np.arange(N) * H)
-    u = unit * 1e-8 / np.abs(measurements(p, unit)[:, 0]).max()
-    clean = measurements(p, u)
-    signs = np.random.default_rng((index, seed, 11)).choice([-1, 1], size=len(PARAMETER_NAMES))
-    guess = GyroParameters(**{k: getattr(p, k) * (1 + 0.05 * s)
-                              for k, s in zip(PARAMETER_NAMES, signs, strict=True)})
+    u, clean = driven(p, TwoToneDrive(f1=2500.0, f2=1200.0))
+    guess = guessed(p, np.random.default_rng((index, seed, 11)).choice(
+        [-1, 1], size=len(PARAMETER_NAMES)))
     z = clean + np.random.default_rng((index, seed, int(noise * 1e9))).standard_normal(
         clean.shape) * noise * np.abs(clean).max(axis=0)
     obs = GyroStateObserver(guess, 0.0, 1, ObserverTuning())
